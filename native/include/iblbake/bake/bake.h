@@ -1,0 +1,84 @@
+// The bake pipeline: composes the integrators of ibl/ into SPEC.md's outputs.
+// compute_bake() does no I/O; write_bake() (bake/write.h) turns a result into
+// an output folder.
+#pragma once
+#include <array>
+#include <functional>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "iblbake/ibl/brdf_lut.h"
+#include "iblbake/ibl/source.h"
+#include "iblbake/ibl/specular.h"
+#include "iblbake/image/image.h"
+
+namespace iblbake {
+
+struct Skip {
+    std::string what, why;
+};
+
+struct BakeOptions {
+    int face_size = 256;        // specular mip 0
+    int irradiance_size = 32;
+    int mip_count = 0;          // 0: floor(log2(face_size)) + 1
+    int lut_size = 512;
+    LutModel lut_model = LutModel::Karis;
+    bool irradiance = true, specular = true, lut = true;
+    std::vector<Skip> skip_reasons;  // why an output is off (else "disabled by option")
+
+    SpecularQuality specular_quality;
+    LutQuality lut_quality;
+    int specular_base_face = 0;       // rest cube for filtered lookups; 0: automatic
+    int irradiance_bins = 128;        // lat-long bins across (half as many down)
+    int irradiance_exact_face = 64;   // larger irradiance faces are resampled from this
+    double hot_threshold = 16.0;      // hot texels: above this times the mean ...
+    int max_hot = 1024;               // ... and at most this many
+    bool strict = false;              // bad texels are an error instead of 0
+    int threads = 0;                  // 0: all cores
+
+    // Throws std::invalid_argument naming the option at fault.
+    void validate() const;
+    int resolved_mip_count() const;
+    double mip_roughness(int level) const;  // SPEC: r_m = m / (M - 1)
+};
+
+struct BakeResult {
+    std::optional<Cubemap> irradiance;
+    std::vector<Cubemap> specular;
+    std::vector<double> roughness;
+    std::optional<Image> lut;
+    std::array<Sh9, 3> sh9{};
+    BadInputCounts bad_input;
+    std::vector<Skip> skipped;
+    std::vector<std::pair<std::string, double>> timings;  // seconds per stage
+    // Diagnostics, recorded in the manifest.
+    std::array<double, 3> mean_radiance{};
+    size_t hot_texels = 0;
+    double hot_threshold = 0.0, hot_power_fraction = 0.0;
+    int specular_base_face = 0;
+    std::vector<size_t> samples_per_texel;  // per specular level
+};
+
+struct Cancelled : std::runtime_error {
+    Cancelled() : std::runtime_error("bake cancelled") {}
+};
+struct BadInputError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// Called between stages with a fraction in [0, 1]; return false to cancel
+// (the bake then throws Cancelled and nothing is written).
+using ProgressFn = std::function<bool(const std::string& stage, double fraction)>;
+
+// The whole bake in memory. `source` is a Blender lat-long image; it is
+// cleaned in place (SPEC.md section 1).
+BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {});
+
+// Just the LUT (it depends on nothing but its own settings).
+Image compute_lut(int size, LutModel model, const LutQuality& q = {}, int threads = 0);
+
+}  // namespace iblbake

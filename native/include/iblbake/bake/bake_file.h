@@ -1,0 +1,19 @@
+// A file in, a folder out: read (io), hash, compute, write. Shared by the CLI
+// and the Python module so both behave the same.
+#pragma once
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "iblbake/bake/bake.h"
+#include "iblbake/bake/write.h"
+
+namespace iblbake {
+
+// Any failure (unreadable source, bad options, strict bad input, write error,
+// cancel) throws before the output folder is touched.
+nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakeOptions& bo,
+                         const WriteOptions& wo, const ProgressFn& progress = {});
+
+}  // namespace iblbake

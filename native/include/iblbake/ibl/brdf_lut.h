@@ -1,0 +1,39 @@
+// Split-sum BRDF integration LUT (SPEC.md section 3; Karis 2013).
+#pragma once
+#include <string>
+
+#include "iblbake/image/image.h"
+
+namespace iblbake {
+
+enum class LutModel { Karis, HeightCorrelated, Multiscatter };
+const char* lut_model_name(LutModel m);
+LutModel lut_model_from_name(const std::string& name);  // throws std::invalid_argument
+
+struct LutQuality {
+    int phi_points = 8;   // Gauss-Legendre nodes per azimuth panel
+    int u_points = 12;    // Gauss-Legendre nodes per panel of the CDF variable
+};
+
+struct LutValue { double a, b; };
+
+// A and B at one (NdotV, r). Deterministic quadrature in the half vector's
+// (phi, u): u is GGX's CDF variable, so D cos(theta_h) dh = du dphi / 2pi and
+// the integrand is G (v.h) / (NdotV cos theta_h) times (1 - Fc) or Fc. n.l
+// changes sign at theta_h = psi/2 + pi/4 with psi = atan2(sin_v cos(phi),
+// cos_v): the u integral stops exactly there, so the integrand has no kink.
+// Azimuth panels are graded toward phi = pi/2, where that limit swings from
+// pi/2 to 0 over a width of about NdotV at grazing angles.
+//   karis:              Schlick-GGX G, k = alpha / 2 (the seed shader, UE4)
+//   height-correlated:  Smith G2 = 1 / (1 + Lambda(v) + Lambda(l))
+//   multiscatter:       height-correlated, with Turquin 2019's energy
+//                       compensation written linearly in F0: A' = 1 - B,
+//                       B' = B (exact at F0 = 0 and F0 = 1, so F0 = 1 is a
+//                       white furnace).
+LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const LutQuality& q = {});
+
+// N x N LUT: texel (i, j), j from the top: NdotV = (i + .5)/N, r = (j + .5)/N.
+// Red = A, green = B, blue = 0.
+Image bake_brdf_lut(int size, LutModel model, const LutQuality& q = {});
+
+}  // namespace iblbake

@@ -1,0 +1,70 @@
+// The source environment: cleaning bad texels, lookups, the split into a
+// bounded "rest" and exactly-integrated "hot" texels, energy-exact reduction
+// to weighted points, SH projection. All directions returned are engine
+// space (SPEC.md section 2); the image is Blender lat-long (section 1).
+#pragma once
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "iblbake/image/image.h"
+#include "iblbake/math/sh.h"
+#include "iblbake/math/vec3.h"
+
+namespace iblbake {
+
+struct BadInputCounts {
+    uint64_t nan = 0, inf = 0, negative = 0, pixels = 0;
+    bool any() const { return pixels != 0; }
+};
+
+// Count NaN, +-Inf and negative channel values and set them to 0 (SPEC.md 1).
+BadInputCounts sanitize(Image& img);
+
+// Bilinear reconstruction L(w) of SPEC.md section 1 (wraps in u, clamps rows),
+// for an engine-space direction.
+void latlong_bilinear(const Image& img, const Vec3d& engine_dir, float out[3]);
+
+// A source texel (or a block of them) as a point: engine direction and power
+// (radiance times solid angle) per channel.
+struct RadiancePoint {
+    float dir[3];
+    float power[3];
+};
+
+// The split L = rest + hot. Every texel whose largest channel m exceeds the
+// threshold keeps rest = L * threshold / m and gives the excess to `hot`, a
+// list of points at its centre direction. The threshold is the larger of
+// `relative_threshold` times the solid-angle-weighted mean of m and the value
+// that leaves at most `max_hot` texels above it.
+struct HotSplit {
+    Image rest;
+    std::vector<RadiancePoint> hot;
+    double threshold = 0.0;
+    double hot_power_fraction = 0.0;  // hot power / total power (luminance-free: sum of channels)
+};
+HotSplit split_hot(const Image& img, double relative_threshold, int max_hot);
+
+// "Vector power" of a set of texels, per channel c: V_c = sum_t L_t,c Omega_t w_t.
+// For a normal n that sees every texel of the set from its lit side,
+// sum_t L_t,c Omega_t max(0, n.w_t) = n.V_c exactly, which makes a reduced
+// cloud of such vectors an exact cosine integrator except for the few sets
+// that straddle n's horizon. Stored structure-of-arrays for the hot loop.
+struct VectorCloud {
+    std::vector<float> x[3], y[3], z[3];
+    size_t size() const { return x[0].size(); }
+    void add(const float dir[3], const float power[3]);
+};
+
+// Energy-exact reduction: texels are binned into a `w` x `h` lat-long grid
+// (each texel to the bin holding its centre); a bin becomes its vector power.
+VectorCloud reduce_to_vectors(const Image& img, int w, int h);
+
+// Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5),
+// summed over every texel with its exact solid angle, in double.
+std::array<Sh9, 3> project_sh9(const Image& img);
+
+// Solid-angle-weighted mean radiance per channel.
+std::array<double, 3> mean_radiance(const Image& img);
+
+}  // namespace iblbake

@@ -1,0 +1,42 @@
+// GGX prefiltered specular radiance (SPEC.md section 3), N = V = R = n:
+//   Pre(n, r) = int L(w) D(h) max(0, n.w) dw / int D(h) max(0, n.w) dw.
+#pragma once
+#include <vector>
+
+#include "iblbake/ibl/cube_sampling.h"
+#include "iblbake/ibl/source.h"
+
+namespace iblbake {
+
+struct SpecularQuality {
+    int rings = 12;         // Gauss-Legendre nodes in the GGX CDF variable u
+    int min_phi = 6;        // azimuthal samples per ring, at least ...
+    int max_phi = 48;       // ... and at most
+    float lod_bias = 1.0f;  // added to the footprint's mip level
+};
+
+// One deterministic sample of the kernel in n's tangent frame.
+struct KernelSample {
+    float t, b, n;     // local direction (tangent, bitangent, normal components)
+    float weight;      // quadrature weight of the self-normalised estimator
+    float lod_base;    // 0.5 * log2(footprint solid angle) + bias
+};
+
+// The sample set for roughness r: rings at Gauss-Legendre nodes of u on
+// [0, 1/(1+a^2)] (the part of the lobe with n.w > 0, so no kink inside),
+// each ring split into roughly square cells in phi. This is filtered
+// importance sampling (Krivanek and Colbert 2008, "Real-time Shading with
+// Filtered Importance Sampling") with a product Gauss rule in place of random
+// points: the pdf is D(h) cos(theta_h), the footprint of each sample is the
+// solid angle of its cell, and the mip level is chosen from it.
+std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQuality& q, int base_face);
+
+// Mip 0 (r = 0): the bilinear source lookup L(n) at every texel centre.
+void specular_mirror(Cubemap& dst, const Image& latlong);
+
+// Level for roughness r > 0: filtered importance sampling of `rest` plus the
+// exact kernel sum over the hot points divided by the analytic normaliser.
+void specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector<RadiancePoint>& hot,
+                        double roughness, const SpecularQuality& q);
+
+}  // namespace iblbake

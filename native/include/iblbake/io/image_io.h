@@ -1,0 +1,32 @@
+// All image file I/O, through OpenImageIO. Nothing else in the library reads
+// or writes image files.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "iblbake/image/image.h"
+
+namespace iblbake::io {
+
+struct LoadedImage {
+    Image image;          // RGB, linear
+    int source_channels;  // as stored in the file
+    bool linearised;      // an integer sRGB file was converted to linear
+    std::string format;   // OpenImageIO's format name ("openexr", "hdr", "png", ...)
+};
+
+// EXR, Radiance .hdr, PNG, JPEG (anything OpenImageIO reads). Grey is
+// expanded, alpha dropped; integer (8/16-bit) files are treated as sRGB and
+// linearised unless they declare a linear colour space. Throws
+// std::runtime_error with a one-line reason on missing, empty or corrupt files.
+LoadedImage read_image(const std::string& path);
+
+enum class ExrPixel { Half, Float };
+// RGB(A) EXR, zip-compressed. `alpha` may be empty.
+void write_exr(const std::string& path, const Image& img, const std::vector<float>& alpha, ExrPixel pixel);
+// 8-bit RGBA PNG from already-encoded values in [0, 1].
+void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
+// 16-bit PNG from values in [0, 1].
+void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
+
+}  // namespace iblbake::io

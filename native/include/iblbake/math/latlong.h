@@ -1,0 +1,38 @@
+// Latitude-longitude mapping of SPEC.md section 1 (Blender world space, +Z up).
+#pragma once
+#include <cmath>
+
+#include "iblbake/math/vec3.h"
+
+namespace iblbake {
+
+// u in [0, 1] left to right, v in [0, 1] bottom (nadir) to top (zenith).
+struct LatLongUV { double u, v; };
+
+inline LatLongUV direction_to_latlong(const Vec3d& d) {
+    const double u = 0.5 - std::atan2(d.y, d.x) / (2.0 * kPi);
+    const double zc = std::fmax(-1.0, std::fmin(1.0, d.z / length(d)));
+    return {u - std::floor(u), 0.5 + std::asin(zc) / kPi};
+}
+
+inline Vec3d latlong_to_direction(double u, double v) {
+    const double phi = (0.5 - u) * 2.0 * kPi;
+    const double lat = (v - 0.5) * kPi;
+    const double c = std::cos(lat);
+    return {c * std::cos(phi), c * std::sin(phi), std::sin(lat)};
+}
+
+// Centre of texel (col, row), row 0 at the top of the file.
+inline Vec3d latlong_texel_direction(int col, int row, int w, int h) {
+    return latlong_to_direction((col + 0.5) / w, 1.0 - (row + 0.5) / h);
+}
+
+// Exact solid angle of any texel of row `row`: (2 pi / W) (sin lat_top - sin lat_bottom).
+inline double latlong_row_solid_angle(int row, int w, int h) {
+    const double top = 0.5 * kPi - kPi * row / h;
+    const double bottom = 0.5 * kPi - kPi * (row + 1) / h;
+    // sin a - sin b = 2 cos((a+b)/2) sin((a-b)/2): no cancellation near the poles.
+    return (2.0 * kPi / w) * 2.0 * std::cos(0.5 * (top + bottom)) * std::sin(0.5 * (top - bottom));
+}
+
+}  // namespace iblbake

@@ -1,0 +1,248 @@
+// bake(), bake_file(), brdf_lut(): option parsing and array conversion.
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "bindings.h"
+#include "iblbake/bake/bake_file.h"
+#include "iblbake/io/hash.h"
+
+namespace py = pybind11;
+
+namespace iblbake::py {
+
+namespace {
+
+[[noreturn]] void value_error(const std::string& msg) { throw pybind11::value_error(msg); }
+
+template <typename T>
+T get_as(const pybind11::handle& v, const std::string& key, const char* type_name) {
+    try {
+        return v.cast<T>();
+    } catch (const pybind11::cast_error&) {
+        value_error("option '" + key + "' must be " + type_name);
+    }
+}
+
+// Keyword options -> BakeOptions / WriteOptions. Unknown keys are an error.
+void parse_options(const pybind11::dict& kw, BakeOptions& bo, WriteOptions& wo, pybind11::object& progress,
+                   std::string& source_path) {
+    for (auto item : kw) {
+        const std::string key = pybind11::str(item.first);
+        const pybind11::handle v = item.second;
+        auto as_int = [&] { return get_as<int>(v, key, "an int"); };
+        auto as_bool = [&] { return get_as<bool>(v, key, "a bool"); };
+        auto as_float = [&] { return get_as<double>(v, key, "a number"); };
+        auto as_str = [&] { return get_as<std::string>(v, key, "a str"); };
+        if (key == "face_size") bo.face_size = as_int();
+        else if (key == "irradiance_size") bo.irradiance_size = as_int();
+        else if (key == "mip_count") bo.mip_count = as_int();
+        else if (key == "lut_size") bo.lut_size = as_int();
+        else if (key == "lut_model") bo.lut_model = lut_model_from_name(as_str());
+        else if (key == "irradiance") bo.irradiance = as_bool();
+        else if (key == "specular") bo.specular = as_bool();
+        else if (key == "lut") bo.lut = as_bool();
+        else if (key == "rings") bo.specular_quality.rings = as_int();
+        else if (key == "min_phi") bo.specular_quality.min_phi = as_int();
+        else if (key == "max_phi") bo.specular_quality.max_phi = as_int();
+        else if (key == "lod_bias") bo.specular_quality.lod_bias = float(as_float());
+        else if (key == "specular_base_face") bo.specular_base_face = as_int();
+        else if (key == "irradiance_bins") bo.irradiance_bins = as_int();
+        else if (key == "irradiance_exact_face") bo.irradiance_exact_face = as_int();
+        else if (key == "lut_phi_points") bo.lut_quality.phi_points = as_int();
+        else if (key == "lut_u_points") bo.lut_quality.u_points = as_int();
+        else if (key == "hot_threshold") bo.hot_threshold = as_float();
+        else if (key == "max_hot") bo.max_hot = as_int();
+        else if (key == "strict") bo.strict = as_bool();
+        else if (key == "threads") bo.threads = as_int();
+        else if (key == "skip_reasons") {
+            for (auto kv : get_as<pybind11::dict>(v, key, "a dict of output -> reason"))
+                bo.skip_reasons.push_back({pybind11::str(kv.first), pybind11::str(kv.second)});
+        } else if (key == "formats") {
+            wo.exr = wo.png = false;
+            for (const std::string& f : get_as<std::vector<std::string>>(v, key, "a list of 'exr'/'png'")) {
+                if (f == "exr") wo.exr = true;
+                else if (f == "png") wo.png = true;
+                else value_error("unknown format '" + f + "' (expected 'exr' or 'png')");
+            }
+        } else if (key == "float32") wo.float32 = as_bool();
+        else if (key == "png_encoding") {
+            const std::string e = as_str();
+            if (e == "srgb") wo.png_encoding = PngEncoding::Srgb;
+            else if (e == "rgbm") wo.png_encoding = PngEncoding::Rgbm;
+            else value_error("unknown png_encoding '" + e + "' (expected 'srgb' or 'rgbm')");
+        } else if (key == "exposure") wo.exposure = float(as_float());
+        else if (key == "rgbm_range") wo.rgbm_range = float(as_float());
+        else if (key == "progress") {
+            if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
+            progress = pybind11::reinterpret_borrow<pybind11::object>(v);
+        } else if (key == "source_path") source_path = v.is_none() ? std::string() : as_str();
+        else value_error("unknown option '" + key + "'");
+    }
+    bo.validate();
+}
+
+// A progress callback that may be called from any thread with the GIL released.
+ProgressFn wrap_progress(const pybind11::object& cb) {
+    if (cb.is_none()) return {};
+    return [cb](const std::string& stage, double f) {
+        pybind11::gil_scoped_acquire gil;
+        const pybind11::object r = cb(stage, f);
+        return r.is_none() || r.cast<bool>();
+    };
+}
+
+pybind11::array_t<float> cube_array(const Cubemap& c) {
+    pybind11::array_t<float> a({6, c.size, c.size, 3});
+    std::memcpy(a.mutable_data(), c.pixels.data(), c.pixels.size() * sizeof(float));
+    return a;
+}
+
+pybind11::array_t<float> image_array(const Image& img) {
+    pybind11::array_t<float> a({img.height, img.width, 3});
+    std::memcpy(a.mutable_data(), img.pixels.data(), img.pixels.size() * sizeof(float));
+    return a;
+}
+
+pybind11::object json_to_py(const nlohmann::json& j) {
+    return pybind11::module_::import("json").attr("loads")(j.dump());
+}
+
+pybind11::dict result_dict(const BakeResult& r) {
+    pybind11::dict d;
+    d["irradiance"] = r.irradiance ? pybind11::object(cube_array(*r.irradiance)) : pybind11::none();
+    pybind11::list spec;
+    for (const Cubemap& c : r.specular) spec.append(cube_array(c));
+    d["specular"] = spec;
+    d["roughness"] = r.roughness;
+    d["brdf_lut"] = r.lut ? pybind11::object(image_array(*r.lut)) : pybind11::none();
+    pybind11::array_t<double> sh({3, 9});
+    for (int c = 0; c < 3; ++c)
+        for (int i = 0; i < 9; ++i) sh.mutable_at(c, i) = r.sh9[c][i];
+    d["sh9"] = sh;
+    pybind11::dict bad;
+    bad["nan"] = r.bad_input.nan;
+    bad["inf"] = r.bad_input.inf;
+    bad["negative"] = r.bad_input.negative;
+    bad["pixels"] = r.bad_input.pixels;
+    d["bad_input"] = bad;
+    pybind11::dict timings;
+    for (const auto& [k, v] : r.timings) timings[pybind11::str(k)] = v;
+    d["timings"] = timings;
+    d["hot_texels"] = r.hot_texels;
+    return d;
+}
+
+// Checks dtype and shape; copies the RGB channels (alpha dropped).
+Image image_from_array(const pybind11::handle& obj) {
+    if (!pybind11::isinstance<pybind11::array>(obj)) value_error("image must be a numpy array");
+    const auto arr = pybind11::reinterpret_borrow<pybind11::array>(obj);
+    if (!arr.dtype().is(pybind11::dtype::of<float>()))
+        value_error("image must be float32, got " + std::string(pybind11::str(arr.dtype())));
+    if (arr.ndim() != 3 || (arr.shape(2) != 3 && arr.shape(2) != 4))
+        value_error("image must have shape (H, W, 3) or (H, W, 4), got " +
+                    std::string(pybind11::str(pybind11::make_tuple(arr.attr("shape")))));
+    if (arr.shape(0) < 1 || arr.shape(1) < 1) value_error("image must be at least 1 x 1");
+    const auto c = pybind11::array_t<float, pybind11::array::c_style | pybind11::array::forcecast>::ensure(arr);
+    const int h = int(c.shape(0)), w = int(c.shape(1)), ch = int(c.shape(2));
+    Image img(w, h);
+    const float* src = c.data();
+    for (size_t p = 0; p < size_t(w) * h; ++p)
+        for (int k = 0; k < 3; ++k) img.pixels[p * 3 + k] = src[p * ch + k];
+    return img;
+}
+
+}  // namespace
+
+void bind_bake(pybind11::module_& m) {
+    m.def(
+        "bake",
+        [](const pybind11::handle& image, const pybind11::object& out_dir, const pybind11::kwargs& kw) {
+            BakeOptions bo;
+            WriteOptions wo;
+            pybind11::object progress = pybind11::none();
+            std::string source_path;
+            parse_options(kw, bo, wo, progress, source_path);
+            Image img = image_from_array(image);
+            std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
+            if (!out.empty() && !wo.exr && !wo.png) value_error("formats must name at least one of 'exr', 'png'");
+            const ProgressFn pf = wrap_progress(progress);
+            SourceInfo src;
+            src.path = source_path;
+            src.width = img.width;
+            src.height = img.height;
+            BakeResult r;
+            nlohmann::json manifest;
+            {
+                pybind11::gil_scoped_release release;
+                src.sha256 = io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
+                r = compute_bake(std::move(img), bo, pf);
+                manifest = out.empty() ? make_manifest(r, bo, wo, src, nlohmann::json::object())
+                                       : write_bake(r, out, bo, wo, src);
+            }
+            pybind11::dict d = result_dict(r);
+            d["manifest"] = json_to_py(manifest);
+            return d;
+        },
+        pybind11::arg("image"), pybind11::arg("out_dir") = pybind11::none(),
+        R"doc(Bake IBL from a lat-long float32 array (H, W, 3 or 4), rows top to bottom, Blender world space.
+
+With out_dir, writes SPEC.md's files there atomically. Always returns a dict with
+'irradiance' (6, N, N, 3), 'specular' (list of (6, n, n, 3)), 'roughness', 'brdf_lut' (N, N, 3),
+'sh9' (3, 9), 'bad_input', 'timings' and 'manifest'. Options (keywords): face_size, irradiance_size,
+mip_count, lut_size, lut_model, irradiance, specular, lut, rings, min_phi, max_phi, lod_bias,
+specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
+hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
+rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path.
+Raises ValueError on a wrong dtype, shape or option, or on bad pixels with strict=True.)doc");
+
+    m.def(
+        "bake_file",
+        [](const std::string& source, const std::string& out_dir, const pybind11::kwargs& kw) {
+            BakeOptions bo;
+            WriteOptions wo;
+            pybind11::object progress = pybind11::none();
+            std::string ignored;
+            parse_options(kw, bo, wo, progress, ignored);
+            const ProgressFn pf = wrap_progress(progress);
+            nlohmann::json manifest;
+            {
+                pybind11::gil_scoped_release release;
+                manifest = bake_file(source, out_dir, bo, wo, pf);
+            }
+            return json_to_py(manifest);
+        },
+        pybind11::arg("source"), pybind11::arg("out_dir"),
+        "Bake an image file into out_dir (the CLI's bake); returns the manifest. Same options as bake().");
+
+    m.def(
+        "brdf_lut",
+        [](int size, const std::string& model, int phi_points, int u_points, int threads) {
+            if (size < 1 || size > 8192) value_error("size must be in 1..8192");
+            if (phi_points < 1 || u_points < 1) value_error("quadrature orders must be >= 1");
+            const LutModel mdl = lut_model_from_name(model);
+            Image lut;
+            {
+                pybind11::gil_scoped_release release;
+                lut = compute_lut(size, mdl, LutQuality{phi_points, u_points}, threads);
+            }
+            return image_array(lut);
+        },
+        pybind11::arg("size") = 512, pybind11::arg("model") = "karis", pybind11::arg("phi_points") = 8,
+        pybind11::arg("u_points") = 12, pybind11::arg("threads") = 0, "The BRDF LUT alone, (size, size, 3).");
+
+    m.def(
+        "integrate_brdf",
+        [](double ndotv, double roughness, const std::string& model, int phi_points, int u_points) {
+            const LutValue v = integrate_brdf(ndotv, roughness, lut_model_from_name(model), {phi_points, u_points});
+            return pybind11::make_tuple(v.a, v.b);
+        },
+        pybind11::arg("ndotv"), pybind11::arg("roughness"), pybind11::arg("model") = "karis",
+        pybind11::arg("phi_points") = 8, pybind11::arg("u_points") = 12, "(A, B) at one point.");
+}
+
+}  // namespace iblbake::py

@@ -1,0 +1,46 @@
+// Geometry and image helpers for scripts and tests: the contract's mappings.
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <cstring>
+
+#include "bindings.h"
+#include "iblbake/io/image_io.h"
+#include "iblbake/math/cube.h"
+
+namespace iblbake::py {
+
+void bind_geometry(pybind11::module_& m) {
+    m.def(
+        "texel_direction",
+        [](int face, int i, int j, int n) {
+            if (face < 0 || face > 5 || n < 1 || i < 0 || j < 0 || i >= n || j >= n)
+                throw pybind11::value_error("texel out of range");
+            const Vec3d d = texel_direction(face, i, j, n);
+            return pybind11::make_tuple(d.x, d.y, d.z);
+        },
+        "Engine-space (Y-up) unit direction of texel (i, j) of face `face` of an n x n cube.");
+    m.def(
+        "direction_to_face",
+        [](double x, double y, double z) {
+            if (x == 0 && y == 0 && z == 0) throw pybind11::value_error("zero direction");
+            const FaceCoord fc = direction_to_face(Vec3d{x, y, z});
+            return pybind11::make_tuple(fc.face, fc.s, fc.t);
+        },
+        "Face index and (s, t) in [0, 1] of an engine-space direction.");
+    m.def(
+        "read_image",
+        [](const std::string& path) {
+            io::LoadedImage li;
+            {
+                pybind11::gil_scoped_release release;
+                li = io::read_image(path);
+            }
+            pybind11::array_t<float> a({li.image.height, li.image.width, 3});
+            std::memcpy(a.mutable_data(), li.image.pixels.data(), li.image.pixels.size() * sizeof(float));
+            return a;
+        },
+        "Read an image as the bake does: (H, W, 3) float32, linear.");
+}
+
+}  // namespace iblbake::py

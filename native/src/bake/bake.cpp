@@ -1,0 +1,199 @@
+#include "iblbake/bake/bake.h"
+
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "iblbake/ibl/cube_sampling.h"
+#include "iblbake/ibl/irradiance.h"
+
+namespace iblbake {
+
+namespace {
+
+int floor_log2(int n) {
+    int l = 0;
+    while ((n >> (l + 1)) > 0) ++l;
+    return l;
+}
+int pow2_ceil(double x) {
+    int p = 1;
+    while (p < x && p < (1 << 20)) p <<= 1;
+    return p;
+}
+
+void check(bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument(what);
+}
+
+class StageClock {
+public:
+    explicit StageClock(BakeResult& r) : r_(r) {}
+    void done(const char* stage) {
+        const auto now = std::chrono::steady_clock::now();
+        r_.timings.emplace_back(stage, std::chrono::duration<double>(now - last_).count());
+        last_ = now;
+    }
+
+private:
+    BakeResult& r_;
+    std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+template <typename Fn>
+auto in_arena(int threads, Fn&& fn) {
+    if (threads <= 0) return fn();
+    tbb::task_arena arena(threads);
+    return arena.execute(fn);
+}
+
+}  // namespace
+
+void BakeOptions::validate() const {
+    check(face_size >= 1 && face_size <= 8192, "face_size must be in 1..8192");
+    check(irradiance_size >= 1 && irradiance_size <= 8192, "irradiance_size must be in 1..8192");
+    check(mip_count >= 0 && mip_count <= 20, "mip_count must be in 0..20 (0 = full chain)");
+    check(lut_size >= 1 && lut_size <= 8192, "lut_size must be in 1..8192");
+    check(specular_quality.rings >= 1 && specular_quality.rings <= 256, "specular rings must be in 1..256");
+    check(specular_quality.min_phi >= 1 && specular_quality.max_phi >= specular_quality.min_phi &&
+              specular_quality.max_phi <= 4096,
+          "specular phi counts must satisfy 1 <= min_phi <= max_phi <= 4096");
+    check(std::isfinite(specular_quality.lod_bias) && std::fabs(specular_quality.lod_bias) <= 16,
+          "lod_bias must be finite, in -16..16");
+    check(lut_quality.phi_points >= 1 && lut_quality.phi_points <= 256, "LUT phi points must be in 1..256");
+    check(lut_quality.u_points >= 1 && lut_quality.u_points <= 256, "LUT u points must be in 1..256");
+    check(specular_base_face == 0 || (specular_base_face >= 1 && specular_base_face <= 4096 &&
+                                      (specular_base_face & (specular_base_face - 1)) == 0),
+          "specular_base_face must be 0 (automatic) or a power of two up to 4096");
+    check(irradiance_bins >= 1 && irradiance_bins <= 4096, "irradiance_bins must be in 1..4096");
+    check(irradiance_exact_face >= 1 && irradiance_exact_face <= 4096, "irradiance_exact_face must be in 1..4096");
+    check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
+    check(max_hot >= 0 && max_hot <= 1 << 20, "max_hot must be in 0..1048576");
+    check(threads >= 0 && threads <= 1024, "threads must be >= 0");
+}
+
+int BakeOptions::resolved_mip_count() const { return mip_count > 0 ? mip_count : floor_log2(face_size) + 1; }
+
+double BakeOptions::mip_roughness(int level) const {
+    const int m = resolved_mip_count();
+    return m == 1 ? 0.0 : double(level) / (m - 1);
+}
+
+Image compute_lut(int size, LutModel model, const LutQuality& q, int threads) {
+    return in_arena(threads, [&] { return bake_brdf_lut(size, model, q); });
+}
+
+BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress) {
+    o.validate();
+    if (source.width < 1 || source.height < 1) throw std::invalid_argument("source image is empty");
+    return in_arena(o.threads, [&] {
+        BakeResult r;
+        StageClock clock(r);
+        auto report = [&](const std::string& stage, double f) {
+            if (progress && !progress(stage, f)) throw Cancelled();
+        };
+        const int mips = o.resolved_mip_count();
+        // Rough share of the work per stage, for the progress bar.
+        const double w_irr = o.irradiance ? 0.15 : 0.0, w_lut = o.lut ? 0.25 : 0.0;
+        const double w_spec = o.specular ? 0.6 : 0.0, w_total = 0.05 + w_irr + w_spec + w_lut;
+        double done = 0.0;
+        auto advance = [&](double w) { done += w / w_total; };
+
+        report("reading source", 0.0);
+        r.bad_input = sanitize(source);
+        if (o.strict && r.bad_input.any())
+            throw BadInputError("source has " + std::to_string(r.bad_input.pixels) + " bad pixels (" +
+                                std::to_string(r.bad_input.nan) + " NaN, " + std::to_string(r.bad_input.inf) +
+                                " Inf, " + std::to_string(r.bad_input.negative) + " negative values)");
+        r.mean_radiance = mean_radiance(source);
+        clock.done("sanitize");
+        r.sh9 = project_sh9(source);
+        clock.done("sh9");
+
+        const bool need_split = o.irradiance || (o.specular && mips > 1);
+        HotSplit split;
+        if (need_split) {
+            split = split_hot(source, o.hot_threshold, o.max_hot);
+            r.hot_texels = split.hot.size();
+            r.hot_threshold = split.threshold;
+            r.hot_power_fraction = split.hot_power_fraction;
+            clock.done("hot_split");
+        }
+        advance(0.05);
+
+        auto skip = [&](const char* what) {
+            for (const Skip& s : o.skip_reasons)
+                if (s.what == what) { r.skipped.push_back(s); return; }
+            r.skipped.push_back({what, "disabled by option"});
+        };
+
+        if (o.irradiance) {
+            report("irradiance", done);
+            VectorCloud cloud = reduce_to_vectors(split.rest, o.irradiance_bins, std::max(1, o.irradiance_bins / 2));
+            for (const RadiancePoint& p : split.hot) cloud.add(p.dir, p.power);
+            Cubemap irr(o.irradiance_size);
+            irradiance_convolve(irr, cloud, o.irradiance_exact_face);
+            r.irradiance = std::move(irr);
+            clock.done("irradiance");
+            advance(w_irr);
+        } else {
+            skip("irradiance");
+        }
+
+        if (o.specular) {
+            report("specular", done);
+            CubePyramid pyramid;
+            if (mips > 1) {
+                // The rest cube must resolve the narrowest lobe (about alpha_1
+                // radians wide) but need not be finer than the source.
+                const double r1 = o.mip_roughness(1), a1 = r1 * r1;
+                int base = o.specular_base_face;
+                if (base == 0)
+                    base = std::clamp(pow2_ceil(4.0 / a1), 8, std::clamp(pow2_ceil(source.width / 4.0), 8, 2048));
+                r.specular_base_face = base;
+                Cubemap cube(base);
+                const int ss = std::clamp(int(std::ceil(source.width / (kPi * base))), 1, 4);
+                latlong_to_cube(cube, split.rest, ss);
+                pyramid = build_pyramid(cube);
+                clock.done("specular_pyramid");
+            }
+            // Weight per level by texel count x samples, for the progress bar.
+            for (int m = 0; m < mips; ++m) {
+                const int n = std::max(1, o.face_size >> m);
+                const double rough = o.mip_roughness(m);
+                Cubemap level(n);
+                if (rough == 0.0) {
+                    specular_mirror(level, source);
+                    r.samples_per_texel.push_back(1);
+                } else {
+                    specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality);
+                    r.samples_per_texel.push_back(
+                        make_kernel_samples(rough, o.specular_quality, pyramid.base_size()).size());
+                }
+                r.specular.push_back(std::move(level));
+                r.roughness.push_back(rough);
+                const double share = (m == 0 ? 0.5 : 0.5 / (mips - 1));
+                advance(w_spec * (mips == 1 ? 1.0 : share));
+                report("specular", done);
+            }
+            clock.done("specular");
+        } else {
+            skip("specular");
+        }
+
+        if (o.lut) {
+            report("brdf_lut", done);
+            r.lut = bake_brdf_lut(o.lut_size, o.lut_model, o.lut_quality);
+            clock.done("brdf_lut");
+            advance(w_lut);
+        } else {
+            skip("brdf_lut");
+        }
+        report("done", 1.0);
+        return r;
+    });
+}
+
+}  // namespace iblbake

@@ -1,0 +1,22 @@
+#include "iblbake/bake/bake_file.h"
+
+#include "iblbake/io/hash.h"
+#include "iblbake/io/image_io.h"
+
+namespace iblbake {
+
+nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakeOptions& bo,
+                         const WriteOptions& wo, const ProgressFn& progress) {
+    bo.validate();
+    io::LoadedImage loaded = io::read_image(source_path);
+    SourceInfo src;
+    src.path = source_path;
+    src.width = loaded.image.width;
+    src.height = loaded.image.height;
+    src.sha256 = io::sha256_file(source_path);
+    src.linearised = loaded.linearised;
+    const BakeResult r = compute_bake(std::move(loaded.image), bo, progress);
+    return write_bake(r, outdir, bo, wo, src);
+}
+
+}  // namespace iblbake

@@ -1,0 +1,162 @@
+#include "iblbake/bake/write.h"
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+
+#include "iblbake/image/encode.h"
+#include "iblbake/io/image_io.h"
+#include "iblbake/io/output_dir.h"
+
+namespace iblbake {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr float kHalfMax = 65504.0f;
+
+const char* png_encoding_name(PngEncoding e) { return e == PngEncoding::Srgb ? "srgb8" : "rgbm"; }
+
+// Writes one cube as a cross (EXR and/or PNG) and records encodings.
+void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cube, const WriteOptions& wo,
+                 json& encodings) {
+    std::vector<float> alpha;
+    const Image cross = cube_to_hcross(cube, &alpha);
+    if (wo.exr) {
+        const bool full = wo.float32 || max_value(cross) > kHalfMax;
+        io::write_exr((dir / (stem + ".exr")).string(), cross, alpha, full ? io::ExrPixel::Float : io::ExrPixel::Half);
+        encodings[stem + ".exr"] = full ? "float" : "half";
+    }
+    if (wo.png) {
+        const std::vector<float> v = wo.png_encoding == PngEncoding::Srgb
+                                         ? encode_srgb(cross, alpha, wo.exposure)
+                                         : encode_rgbm(cross, alpha, wo.exposure, wo.rgbm_range);
+        io::write_png8((dir / (stem + ".png")).string(), cross.width, cross.height, 4, v);
+        encodings[stem + ".png"] = png_encoding_name(wo.png_encoding);
+    }
+}
+
+std::string primary_file(const std::string& stem, const WriteOptions& wo) {
+    return stem + (wo.exr ? ".exr" : ".png");
+}
+
+}  // namespace
+
+json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOptions& wo, const SourceInfo& src,
+                   const json& encodings, double write_seconds) {
+    json m;
+    m["contract"] = 1;
+    m["generator"] = "iblbake";
+    m["source"] = {{"path", src.path.empty() ? json(nullptr) : json(src.path)},
+                   {"width", src.width},
+                   {"height", src.height},
+                   {"sha256", src.sha256},
+                   {"linearised_from_srgb", src.linearised}};
+    m["convention"] = "opengl-y-up";
+    m["layout"] = "hcross";
+    m["face_order"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+    if (r.irradiance) {
+        m["irradiance"] = {{"file", primary_file("irradiance", wo)},
+                           {"face_size", r.irradiance->size},
+                           {"divided_by_pi", true},
+                           {"method", "exact cosine convolution (vector-power cloud + hot texels)"}};
+    } else {
+        m["irradiance"] = nullptr;
+    }
+    json spec = json::array();
+    for (size_t i = 0; i < r.specular.size(); ++i) {
+        spec.push_back({{"level", i},
+                        {"file", primary_file("specular_" + std::to_string(i), wo)},
+                        {"face_size", r.specular[i].size},
+                        {"roughness", r.roughness[i]},
+                        {"samples_per_texel", r.samples_per_texel[i]}});
+    }
+    m["specular"] = spec;
+    m["specular_roughness_mapping"] = "linear: r_m = m / (M - 1)";
+    if (r.lut) {
+        m["brdf_lut"] = {{"file", wo.exr ? "brdf_lut.exr" : "brdf_lut.png"},
+                         {"size", r.lut->width},
+                         {"model", lut_model_name(bo.lut_model)},
+                         {"channels", {{"r", "A (scale of F0)"}, {"g", "B (bias)"}, {"b", "0"}}},
+                         {"axes", {{"x", "NdotV = (i + 0.5) / N"}, {"y", "roughness = (j + 0.5) / N, j from the top"}}}};
+    } else {
+        m["brdf_lut"] = nullptr;
+    }
+    json sh = json::array();
+    for (const auto& ch : r.sh9) sh.push_back(json(std::vector<double>(ch.begin(), ch.end())));
+    m["sh9"] = sh;
+    m["bad_input"] = {{"nan", r.bad_input.nan},
+                      {"inf", r.bad_input.inf},
+                      {"negative", r.bad_input.negative},
+                      {"pixels", r.bad_input.pixels}};
+    json skipped = json::array();
+    for (const Skip& s : r.skipped) skipped.push_back({{"what", s.what}, {"why", s.why}});
+    m["skipped"] = skipped;
+    m["encodings"] = encodings;
+    if (wo.png) {
+        m["png"] = {{"encoding", png_encoding_name(wo.png_encoding)}, {"exposure_stops", wo.exposure}};
+        if (wo.png_encoding == PngEncoding::Rgbm)
+            m["png"]["rgbm"] = {{"range", wo.rgbm_range}, {"decode", "linear = rgb * a * range * 2^-exposure"}};
+    }
+    json timings = json::object();
+    for (const auto& [stage, s] : r.timings) timings[stage] = s;
+    if (write_seconds >= 0.0) timings["write"] = write_seconds;
+    m["timings"] = timings;
+    m["mean_radiance"] = r.mean_radiance;
+    m["hot_texels"] = {{"count", r.hot_texels},
+                       {"threshold", r.hot_threshold},
+                       {"power_fraction", r.hot_power_fraction}};
+    m["options"] = {{"face_size", bo.face_size},
+                    {"irradiance_size", bo.irradiance_size},
+                    {"mip_count", bo.resolved_mip_count()},
+                    {"lut_size", bo.lut_size},
+                    {"lut_model", lut_model_name(bo.lut_model)},
+                    {"specular_rings", bo.specular_quality.rings},
+                    {"specular_max_phi", bo.specular_quality.max_phi},
+                    {"specular_lod_bias", bo.specular_quality.lod_bias},
+                    {"specular_base_face", r.specular_base_face},
+                    {"irradiance_bins", bo.irradiance_bins},
+                    {"lut_phi_points", bo.lut_quality.phi_points},
+                    {"lut_u_points", bo.lut_quality.u_points},
+                    {"hot_threshold", bo.hot_threshold},
+                    {"max_hot", bo.max_hot}};
+    return m;
+}
+
+json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
+                const SourceInfo& src) {
+    if (!wo.exr && !wo.png) throw std::invalid_argument("no output format: ask for exr, png or both");
+    const auto start = std::chrono::steady_clock::now();
+    io::StagingDir staging(outdir);
+    const fs::path dir = staging.path();
+    json encodings = json::object();
+    if (r.irradiance) write_cross(dir, "irradiance", *r.irradiance, wo, encodings);
+    for (size_t i = 0; i < r.specular.size(); ++i)
+        write_cross(dir, "specular_" + std::to_string(i), r.specular[i], wo, encodings);
+    if (r.lut) {
+        const Image& lut = *r.lut;
+        if (wo.exr) {
+            io::write_exr((dir / "brdf_lut.exr").string(), lut, {}, io::ExrPixel::Float);
+            encodings["brdf_lut.exr"] = "float";
+        }
+        if (wo.png) {
+            std::vector<float> v(lut.pixels.size());
+            for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
+            io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
+            encodings["brdf_lut.png"] = "unorm16";
+        }
+    }
+    const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    json manifest = make_manifest(r, bo, wo, src, encodings, write_seconds);
+    {
+        std::ofstream f(dir / "manifest.json");
+        f << manifest.dump(2) << "\n";
+        if (!f) throw std::runtime_error("cannot write manifest.json");
+    }
+    staging.commit();
+    return manifest;
+}
+
+}  // namespace iblbake

@@ -1,0 +1,127 @@
+#include "iblbake/ibl/brdf_lut.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "iblbake/ibl/parallel.h"
+#include "iblbake/math/ggx.h"
+#include "iblbake/math/quadrature.h"
+
+namespace iblbake {
+
+const char* lut_model_name(LutModel m) {
+    switch (m) {
+        case LutModel::Karis: return "karis";
+        case LutModel::HeightCorrelated: return "height-correlated";
+        case LutModel::Multiscatter: return "multiscatter";
+    }
+    return "?";
+}
+
+LutModel lut_model_from_name(const std::string& name) {
+    if (name == "karis") return LutModel::Karis;
+    if (name == "height-correlated") return LutModel::HeightCorrelated;
+    if (name == "multiscatter") return LutModel::Multiscatter;
+    throw std::invalid_argument("unknown BRDF LUT model '" + name +
+                                "' (expected karis, height-correlated or multiscatter)");
+}
+
+namespace {
+
+// Azimuth panels on [0, pi/2], graded geometrically toward pi/2 down to a
+// width of about NdotV / 4 (the width of the swing of the n.l = 0 limit).
+std::vector<double> azimuth_breaks(double ndotv) {
+    std::vector<double> breaks = {0.0};
+    double d = 0.5 * kPi;
+    const double finest = std::max(0.25 * ndotv, 1e-7);
+    while (d > finest) {
+        d *= 0.25;
+        breaks.push_back(0.5 * kPi - d);
+    }
+    breaks.push_back(0.5 * kPi);
+    return breaks;
+}
+
+}  // namespace
+
+LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const LutQuality& q) {
+    const double alpha = roughness * roughness;
+    const double cos_v = std::clamp(ndotv, 1e-7, 1.0);
+    const double sin_v = std::sqrt(std::max(0.0, 1.0 - cos_v * cos_v));
+    const double k = alpha / 2.0;
+    const bool hc = model != LutModel::Karis;
+    const double g1v = ggx::g1_schlick(cos_v, k);
+    const double lambda_v = ggx::smith_lambda(cos_v, alpha);
+
+    const QuadratureRule phi_unit = gauss_legendre(q.phi_points, 0.0, 1.0);
+    const QuadratureRule u_unit = gauss_legendre(q.u_points, 0.0, 1.0);
+    const std::vector<double> half = azimuth_breaks(cos_v);
+
+    double a_sum = 0.0, b_sum = 0.0;
+    // phi in [0, pi] = [0, pi/2] and its mirror pi - phi; the integrand is even in phi.
+    for (int side = 0; side < 2; ++side) {
+        for (size_t p = 0; p + 1 < half.size(); ++p) {
+            const double p0 = half[p], p1 = half[p + 1], pw = p1 - p0;
+            for (size_t ip = 0; ip < phi_unit.nodes.size(); ++ip) {
+                const double phi_h = p0 + pw * phi_unit.nodes[ip];
+                const double phi = side == 0 ? phi_h : kPi - phi_h;
+                const double wphi = pw * phi_unit.weights[ip];
+                const double cphi = std::cos(phi), sphi = std::sin(phi);
+                // n.l >= 0 for theta_h <= theta_max = psi/2 + pi/4.
+                const double psi = std::atan2(sin_v * cphi, cos_v);
+                const double theta_max = 0.5 * psi + 0.25 * kPi;
+                if (theta_max <= 0.0) continue;
+                const double cm = std::cos(theta_max), sm = std::sin(theta_max);
+                const double u_max = ggx::invert_sample(alpha, cm * cm, sm * sm);
+                // Two u panels: the lobe's body, then the tail up to the limit.
+                const double ch = std::cos(0.5 * theta_max), sh = std::sin(0.5 * theta_max);
+                const double u_mid = std::min(u_max, ggx::invert_sample(alpha, ch * ch, sh * sh));
+                const double panels[3] = {0.0, u_mid, u_max};
+                for (int up = 0; up < 2; ++up) {
+                    const double u0 = panels[up], uw = panels[up + 1] - u0;
+                    if (uw <= 0.0) continue;
+                    for (size_t iu = 0; iu < u_unit.nodes.size(); ++iu) {
+                        const double u = u0 + uw * u_unit.nodes[iu];
+                        const double cos2 = ggx::sample_cos2(alpha, u), sin2 = ggx::sample_sin2(alpha, u);
+                        const double cos_h = std::sqrt(cos2), sin_h = std::sqrt(sin2);
+                        const double vdoth = sin_v * sin_h * cphi + cos_v * cos_h;
+                        const double ndotl = 2.0 * vdoth * cos_h - cos_v;
+                        if (ndotl <= 0.0 || vdoth <= 0.0) continue;
+                        const double g = hc ? 1.0 / (1.0 + lambda_v + ggx::smith_lambda(ndotl, alpha))
+                                            : g1v * ggx::g1_schlick(ndotl, k);
+                        const double integrand = g * vdoth / (cos_v * cos_h);
+                        const double fc = std::pow(1.0 - vdoth, 5.0);
+                        const double w = wphi * uw * u_unit.weights[iu];
+                        a_sum += w * (1.0 - fc) * integrand;
+                        b_sum += w * fc * integrand;
+                    }
+                }
+                (void)sphi;
+            }
+        }
+    }
+    // du dphi / (2 pi) over phi in [0, 2 pi): the two halves above cover [0, pi].
+    LutValue r{a_sum / kPi, b_sum / kPi};
+    if (model == LutModel::Multiscatter) r.a = 1.0 - r.b;
+    return r;
+}
+
+Image bake_brdf_lut(int size, LutModel model, const LutQuality& q) {
+    if (size < 1) throw std::invalid_argument("LUT size must be >= 1");
+    Image lut(size, size);
+    parallel_for(0, size, [&](int j) {
+        const double r = (j + 0.5) / size;
+        for (int i = 0; i < size; ++i) {
+            const LutValue v = integrate_brdf((i + 0.5) / size, r, model, q);
+            float* p = lut.at(i, j);
+            p[0] = float(v.a);
+            p[1] = float(v.b);
+            p[2] = 0.0f;
+        }
+    });
+    return lut;
+}
+
+}  // namespace iblbake

@@ -1,0 +1,72 @@
+#include "iblbake/ibl/irradiance.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "iblbake/ibl/cube_sampling.h"
+#include "iblbake/ibl/parallel.h"
+#include "iblbake/math/cube.h"
+
+namespace iblbake {
+
+namespace {
+
+// One output direction against the whole cloud; the inner loop is a plain
+// structure-of-arrays sum the compiler vectorises.
+void convolve_direction(const VectorCloud& cloud, const Vec3d& n, float out[3]) {
+    const float nx = float(n.x), ny = float(n.y), nz = float(n.z);
+    const size_t count = cloud.size();
+    for (int c = 0; c < 3; ++c) {
+        const float* x = cloud.x[c].data();
+        const float* y = cloud.y[c].data();
+        const float* z = cloud.z[c].data();
+        double total = 0.0;
+        constexpr size_t kBlock = 256;  // float partials, double across blocks
+        for (size_t b = 0; b < count; b += kBlock) {
+            const size_t e = std::min(count, b + kBlock);
+            float s = 0.0f;
+            for (size_t p = b; p < e; ++p) s += std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
+            total += s;
+        }
+        out[c] = float(total / kPi);
+    }
+}
+
+void convolve_cube(Cubemap& dst, const VectorCloud& cloud) {
+    const int n = dst.size;
+    parallel_for(0, 6 * n, [&](int row) {
+        const int f = row / n, j = row % n;
+        for (int i = 0; i < n; ++i) convolve_direction(cloud, texel_direction(f, i, j, n), dst.at(f, i, j));
+    });
+}
+
+}  // namespace
+
+void irradiance_convolve(Cubemap& dst, const VectorCloud& cloud, int exact_face_limit) {
+    if (dst.size <= exact_face_limit) {
+        convolve_cube(dst, cloud);
+        return;
+    }
+    Cubemap coarse(exact_face_limit);
+    convolve_cube(coarse, cloud);
+    const BorderedCube src = BorderedCube::from_cube(coarse);
+    const int n = dst.size;
+    parallel_for(0, 6 * n, [&](int row) {
+        const int f = row / n, j = row % n;
+        for (int i = 0; i < n; ++i) src.bilinear(Vec3(texel_direction(f, i, j, n)), dst.at(f, i, j));
+    });
+}
+
+void irradiance_from_sh9(Cubemap& dst, const std::array<Sh9, 3>& sh) {
+    const int n = dst.size;
+    parallel_for(0, 6 * n, [&](int row) {
+        const int f = row / n, j = row % n;
+        for (int i = 0; i < n; ++i) {
+            const Vec3d d = texel_direction(f, i, j, n);
+            float* o = dst.at(f, i, j);
+            for (int c = 0; c < 3; ++c) o[c] = float(sh9_irradiance(sh[c], d));
+        }
+    });
+}
+
+}  // namespace iblbake
