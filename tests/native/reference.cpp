@@ -1,1 +1,123 @@
-#include <gtest/gtest.h>
+#include "reference.h"
+
+#include <cmath>
+#include <random>
+
+#include "iblbake/ibl/source.h"
+#include "iblbake/math/cube.h"
+#include "iblbake/math/ggx.h"
+#include "iblbake/math/latlong.h"
+
+namespace iblbake::ref {
+
+Rgb irradiance(const Image& src, const Vec3d& n) {
+    Rgb acc{0, 0, 0};
+    for (int y = 0; y < src.height; ++y) {
+        const double om = latlong_row_solid_angle(y, src.width, src.height);
+        for (int x = 0; x < src.width; ++x) {
+            const Vec3d w = blender_to_engine(latlong_texel_direction(x, y, src.width, src.height));
+            const double c = dot(n, w);
+            if (c <= 0) continue;
+            for (int k = 0; k < 3; ++k) acc[k] += src.at(x, y)[k] * om * c;
+        }
+    }
+    for (double& v : acc) v /= kPi;
+    return acc;
+}
+
+Rgb prefiltered(const Image& src, const Vec3d& n, double roughness) {
+    if (roughness == 0.0) {
+        float v[3];
+        latlong_bilinear(src, n, v);
+        return {v[0], v[1], v[2]};
+    }
+    const double alpha = roughness * roughness;
+    Rgb acc{0, 0, 0};
+    double wsum = 0.0;
+    for (int y = 0; y < src.height; ++y) {
+        const double om = latlong_row_solid_angle(y, src.width, src.height);
+        for (int x = 0; x < src.width; ++x) {
+            const Vec3d w = blender_to_engine(latlong_texel_direction(x, y, src.width, src.height));
+            const Vec3d d = n - w;
+            const double k = ggx::prefilter_kernel(alpha, 0.5 * dot(d, d)) * om;
+            if (k == 0.0) continue;
+            for (int c = 0; c < 3; ++c) acc[c] += src.at(x, y)[c] * k;
+            wsum += k;
+        }
+    }
+    for (double& v : acc) v /= wsum;
+    return acc;
+}
+
+std::array<double, 2> brdf_karis(double ndotv, double roughness, int n_theta, int n_phi) {
+    // Midpoint rule in (x, phi) over the whole hemisphere of h, theta_h =
+    // alpha tan(x X) (X = atan(pi / 2 alpha)) to put points where the peak is,
+    // with the measure D cos sin dtheta dphi; terms with n.l <= 0 are 0.
+    const double alpha = roughness * roughness, k = alpha / 2;
+    const double sv = std::sqrt(1 - ndotv * ndotv);
+    const double X = std::atan(0.5 * kPi / alpha);
+    double a = 0, b = 0;
+    const double dx = 1.0 / n_theta, dph = 2 * kPi / n_phi;
+    for (int j = 0; j < n_phi; ++j) {
+        const double cp = std::cos((j + 0.5) * dph);
+        for (int i = 0; i < n_theta; ++i) {
+            const double x = (i + 0.5) * dx, tx = std::tan(x * X);
+            const double th = alpha * tx, dth = alpha * X * (1 + tx * tx) * dx;
+            const double ch = std::cos(th), sh = std::sin(th);
+            const double vh = sv * sh * cp + ndotv * ch;
+            const double nl = 2 * vh * ch - ndotv;
+            if (nl <= 0 || vh <= 0) continue;
+            const double g = ggx::g1_schlick(ndotv, k) * ggx::g1_schlick(nl, k);
+            const double f = g * vh / (ndotv * ch) * ggx::D(alpha, ch * ch, sh * sh) * ch * sh * dth;
+            const double fc = std::pow(1 - vh, 5);
+            a += (1 - fc) * f;
+            b += fc * f;
+        }
+    }
+    return {a * dph, b * dph};
+}
+
+Image constant_source(int w, int h, float value) {
+    Image img(w, h);
+    std::fill(img.pixels.begin(), img.pixels.end(), value);
+    return img;
+}
+
+Image random_smooth_source(int w, int h, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> U(0, 1);
+    struct Wave { double fx, fy, ph, amp; int ch; };
+    std::vector<Wave> waves;
+    for (int i = 0; i < 12; ++i)
+        waves.push_back({double(1 + int(U(rng) * 6)), 1 + U(rng) * 5, U(rng) * 6.28, 0.3 * U(rng), i % 3});
+    Image img(w, h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double u = (x + 0.5) / w, v = (y + 0.5) / h;
+            float* p = img.at(x, y);
+            for (int c = 0; c < 3; ++c) p[c] = 1.0f;
+            for (const Wave& wv : waves)
+                p[wv.ch] += float(wv.amp * std::sin(2 * kPi * wv.fx * u + kPi * wv.fy * v + wv.ph));
+            // some sharp features: a bright rectangle and a dark band
+            if (u > 0.3 && u < 0.36 && v > 0.2 && v < 0.3) p[0] += 8, p[1] += 6, p[2] += 4;
+            if (v > 0.6 && v < 0.62) p[0] *= 0.1f, p[1] *= 0.1f, p[2] *= 0.1f;
+        }
+    return img;
+}
+
+Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky) {
+    Image img(w, h);
+    const double cr = std::cos(radius_deg * kPi / 180);
+    const Vec3d d = normalize(blender_dir);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const Vec3d t = latlong_texel_direction(x, y, w, h);
+            float* p = img.at(x, y);
+            const float base = sky * float(0.5 + 0.5 * std::max(0.0, t.z));
+            p[0] = base; p[1] = base; p[2] = base * 1.2f;
+            if (dot(t, d) >= cr) p[0] = sun, p[1] = sun * 0.9f, p[2] = sun * 0.8f;
+        }
+    return img;
+}
+
+}  // namespace iblbake::ref

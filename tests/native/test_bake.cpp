@@ -1,1 +1,185 @@
+// The pipeline end to end: files, manifest, atomic output, bad input, CLI.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "iblbake/bake/bake_file.h"
+#include "iblbake/io/image_io.h"
+#include "reference.h"
+
+using namespace iblbake;
+namespace fs = std::filesystem;
+
+namespace {
+fs::path temp_dir(const std::string& name) {
+    const fs::path p = fs::temp_directory_path() / ("iblbake_test_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(p);
+    fs::create_directories(p);
+    return p;
+}
+
+BakeOptions small_options() {
+    BakeOptions o;
+    o.face_size = 16;
+    o.irradiance_size = 8;
+    o.lut_size = 16;
+    return o;
+}
+
+fs::path write_source(const fs::path& dir, const Image& img) {
+    const fs::path p = dir / "source.exr";
+    io::write_exr(p.string(), img, {}, io::ExrPixel::Float);
+    return p;
+}
+
+nlohmann::json read_json(const fs::path& p) {
+    std::ifstream f(p);
+    return nlohmann::json::parse(f);
+}
+
+int run_cli(const std::string& args) {
+    const int rc = std::system((std::string(IBLBAKE_CLI) + " " + args + " >/dev/null 2>&1").c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+}  // namespace
+
+TEST(Bake, WritesEveryFileTheManifestNames) {
+    const fs::path dir = temp_dir("files");
+    const fs::path src = write_source(dir, ref::random_smooth_source(64, 32, 1));
+    WriteOptions wo;
+    wo.png = true;
+    const nlohmann::json m = bake_file(src.string(), dir / "out", small_options(), wo);
+    for (const char* key : {"contract", "source", "convention", "layout", "irradiance", "specular", "brdf_lut", "sh9",
+                            "bad_input", "skipped", "encodings", "timings"})
+        EXPECT_TRUE(m.contains(key)) << key;
+    EXPECT_EQ(m["contract"], 1);
+    EXPECT_EQ(m["convention"], "opengl-y-up");
+    EXPECT_EQ(m["layout"], "hcross");
+    EXPECT_EQ(m["source"]["width"], 64);
+    EXPECT_EQ(m["source"]["sha256"].get<std::string>().size(), 64u);
+    EXPECT_EQ(m["specular"].size(), 5u);  // 16, 8, 4, 2, 1
+    EXPECT_EQ(m["specular"][4]["roughness"], 1.0);
+    EXPECT_EQ(m["sh9"].size(), 3u);
+    EXPECT_EQ(m["sh9"][0].size(), 9u);
+    for (const auto& [file, enc] : m["encodings"].items()) EXPECT_TRUE(fs::exists(dir / "out" / file)) << file;
+    EXPECT_EQ(m["encodings"]["brdf_lut.exr"], "float");
+    EXPECT_EQ(m["encodings"]["irradiance.exr"], "half");
+    EXPECT_EQ(m["encodings"]["brdf_lut.png"], "unorm16");
+    EXPECT_EQ(read_json(dir / "out" / "manifest.json"), m);
+    // The irradiance cross reads back as 4N x 3N with the values computed.
+    const io::LoadedImage irr = io::read_image((dir / "out" / "irradiance.exr").string());
+    EXPECT_EQ(irr.image.width, 32);
+    EXPECT_EQ(irr.image.height, 24);
+    // No staging folders left behind.
+    for (const auto& e : fs::directory_iterator(dir)) EXPECT_EQ(e.path().filename().string().find(".out"), std::string::npos);
+}
+
+TEST(Bake, FailedBakeKeepsEarlierOne) {
+    const fs::path dir = temp_dir("atomic");
+    const fs::path src = write_source(dir, ref::random_smooth_source(64, 32, 2));
+    bake_file(src.string(), dir / "out", small_options(), {});
+    const auto before = read_json(dir / "out" / "manifest.json");
+    // Missing, empty and corrupt sources: clear errors, old bake intact.
+    EXPECT_THROW(bake_file((dir / "missing.exr").string(), dir / "out", small_options(), {}), std::runtime_error);
+    std::ofstream(dir / "empty.exr").close();
+    EXPECT_THROW(bake_file((dir / "empty.exr").string(), dir / "out", small_options(), {}), std::runtime_error);
+    { std::ofstream f(dir / "corrupt.exr"); f << "this is not an EXR file at all, just text"; }
+    try {
+        bake_file((dir / "corrupt.exr").string(), dir / "out", small_options(), {});
+        FAIL() << "corrupt file accepted";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("corrupt.exr"), std::string::npos) << e.what();
+    }
+    // A cancelled bake leaves it intact too.
+    EXPECT_THROW(bake_file(src.string(), dir / "out", small_options(), {},
+                           [](const std::string&, double f) { return f < 0.3; }),
+                 Cancelled);
+    EXPECT_EQ(read_json(dir / "out" / "manifest.json"), before);
+    int entries = 0;
+    for (const auto& e : fs::directory_iterator(dir)) entries += e.path().filename().string().rfind(".out", 0) == 0;
+    EXPECT_EQ(entries, 0) << "staging folder left behind";
+}
+
+TEST(Bake, BadPixelsCountedZeroedOrRefused) {
+    Image img = ref::constant_source(32, 16, 1.0f);
+    img.at(1, 1)[0] = std::numeric_limits<float>::quiet_NaN();
+    img.at(2, 2)[1] = std::numeric_limits<float>::infinity();
+    img.at(3, 3)[2] = -5.0f;
+    const BakeResult r = compute_bake(img, small_options());
+    EXPECT_EQ(r.bad_input.nan, 1u);
+    EXPECT_EQ(r.bad_input.inf, 1u);
+    EXPECT_EQ(r.bad_input.negative, 1u);
+    EXPECT_EQ(r.bad_input.pixels, 3u);
+    for (const auto& lvl : r.specular)
+        for (float v : lvl.pixels) ASSERT_TRUE(std::isfinite(v));
+    for (float v : r.irradiance->pixels) ASSERT_TRUE(std::isfinite(v));
+    BakeOptions strict = small_options();
+    strict.strict = true;
+    EXPECT_THROW(compute_bake(img, strict), BadInputError);
+}
+
+TEST(Bake, HugeValuesGoToFullFloat) {
+    const fs::path dir = temp_dir("huge");
+    const fs::path src = write_source(dir, ref::sun_source(64, 32, {0, 0, 1}, 20.0, 1e6f, 1.0f));
+    const nlohmann::json m = bake_file(src.string(), dir / "out", small_options(), {});
+    EXPECT_EQ(m["encodings"]["specular_0.exr"], "float");
+}
+
+TEST(Bake, TinySourcesAndSizes) {
+    for (auto [w, h] : {std::pair{1, 1}, {2, 1}, {3, 7}}) {
+        Image img(w, h);
+        for (size_t k = 0; k < img.pixels.size(); ++k) img.pixels[k] = float(1 + k % 5);
+        for (int face : {1, 2, 5}) {
+            BakeOptions o;
+            o.face_size = face;
+            o.irradiance_size = face;
+            o.lut_size = 1;
+            const BakeResult r = compute_bake(img, o);
+            for (const auto& lvl : r.specular)
+                for (float v : lvl.pixels) ASSERT_TRUE(std::isfinite(v) && v >= 0) << w << "x" << h << " face " << face;
+            for (float v : r.irradiance->pixels) ASSERT_TRUE(std::isfinite(v) && v > 0);
+        }
+    }
+}
+
+TEST(Bake, SkippedOutputsAreRecorded) {
+    BakeOptions o = small_options();
+    o.specular = false;
+    o.skip_reasons.push_back({"specular", "no glossy material in the scene"});
+    o.lut = false;
+    const BakeResult r = compute_bake(ref::constant_source(16, 8, 1.0f), o);
+    ASSERT_EQ(r.skipped.size(), 2u);
+    EXPECT_EQ(r.skipped[0].why, "no glossy material in the scene");
+    EXPECT_EQ(r.skipped[1].why, "disabled by option");
+    EXPECT_TRUE(r.specular.empty());
+}
+
+TEST(Bake, InvalidOptionsAreRejected) {
+    BakeOptions o;
+    o.face_size = 0;
+    EXPECT_THROW(o.validate(), std::invalid_argument);
+    o = {};
+    o.specular_base_face = 3;
+    EXPECT_THROW(o.validate(), std::invalid_argument);
+}
+
+TEST(Cli, ExitCodes) {
+    const fs::path dir = temp_dir("cli");
+    const fs::path src = write_source(dir, ref::random_smooth_source(32, 16, 4));
+    EXPECT_EQ(run_cli("--help"), 0);
+    EXPECT_EQ(run_cli("bake --help"), 0);
+    EXPECT_NE(run_cli("bake"), 0);
+    EXPECT_NE(run_cli("bake " + (dir / "missing.exr").string() + " -o " + (dir / "o").string()), 0);
+    EXPECT_NE(run_cli("bake " + src.string() + " -o " + (dir / "o").string() + " --lut-model nope"), 0);
+    EXPECT_NE(run_cli("bake " + src.string() + " -o " + (dir / "o").string() + " --face-size -3"), 0);
+    EXPECT_FALSE(fs::exists(dir / "o"));
+    EXPECT_EQ(run_cli("bake " + src.string() + " -o " + (dir / "o").string() +
+                      " --face-size 8 --irradiance-size 4 --lut-size 8 --format exr,png"),
+              0);
+    EXPECT_TRUE(fs::exists(dir / "o" / "manifest.json"));
+    EXPECT_TRUE(fs::exists(dir / "o" / "specular_0.png"));
+}

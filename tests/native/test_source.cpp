@@ -1,1 +1,153 @@
+// Source cleaning, the hot/rest split, vector reduction and SH projection.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "iblbake/ibl/source.h"
+#include "iblbake/math/cube.h"
+#include "iblbake/math/latlong.h"
+#include "reference.h"
+
+using namespace iblbake;
+
+TEST(Source, SanitizeCountsAndZeroes) {
+    Image img = ref::constant_source(4, 2, 1.0f);
+    img.at(0, 0)[0] = std::numeric_limits<float>::quiet_NaN();
+    img.at(0, 0)[1] = -1.0f;
+    img.at(1, 0)[2] = std::numeric_limits<float>::infinity();
+    img.at(2, 1)[0] = -std::numeric_limits<float>::infinity();
+    img.at(3, 1)[1] = -1e-30f;
+    const BadInputCounts c = sanitize(img);
+    EXPECT_EQ(c.nan, 1u);
+    EXPECT_EQ(c.inf, 2u);
+    EXPECT_EQ(c.negative, 2u);
+    EXPECT_EQ(c.pixels, 4u);
+    for (float v : img.pixels) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
+    EXPECT_EQ(img.at(0, 0)[2], 1.0f);  // good channels of a bad pixel are kept
+}
+
+TEST(Source, HotSplitConservesEnergyAndBoundsRest) {
+    Image img = ref::sun_source(256, 128, {0.3, 0.2, 0.5}, 2.0, 5e4f, 0.5f);
+    const auto before = mean_radiance(img);
+    const HotSplit s = split_hot(img, 16.0, 1024);
+    ASSERT_GT(s.hot.size(), 0u);
+    EXPECT_LE(s.hot.size(), 1024u);
+    for (float v : s.rest.pixels) EXPECT_LE(v, s.threshold * (1 + 1e-6));
+    auto after = mean_radiance(s.rest);
+    for (const RadiancePoint& p : s.hot)
+        for (int c = 0; c < 3; ++c) after[c] += p.power[c] / (4 * kPi);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(after[c] / before[c], 1.0, 1e-5);
+    EXPECT_GT(s.hot_power_fraction, 0.5);
+}
+
+TEST(Source, HotSplitRespectsCap) {
+    Image img = ref::sun_source(256, 128, {0, 0, 1}, 10.0, 1e3f, 0.1f);
+    const HotSplit s = split_hot(img, 4.0, 50);
+    EXPECT_LE(s.hot.size(), 50u);
+    const HotSplit none = split_hot(img, 4.0, 0);
+    EXPECT_EQ(none.hot.size(), 0u);
+    EXPECT_EQ(none.rest.pixels, img.pixels);
+}
+
+TEST(Source, BinReductionIsExactForAnySourceSize) {
+    // Constant radiance 1: total power 4 pi, total vector 0, and the bins of
+    // the upper hemisphere (the equator is a bin edge) carry integral of
+    // max(0, w.up) = pi exactly, whatever the source size.
+    for (auto [w, h] : {std::pair{1, 1}, {2, 1}, {3, 7}, {96, 48}, {1000, 333}}) {
+        const Image img = ref::constant_source(w, h, 1.0f);
+        const std::vector<Bin> bins = reduce_to_bins(img, 16, 8);
+        double power = 0, up = 0, vx = 0;
+        for (int by = 0; by < 8; ++by)
+            for (int bx = 0; bx < 16; ++bx) {
+                const Bin& b = bins[size_t(by) * 16 + bx];
+                power += b.power[0];
+                vx += b.vector[0][0];
+                if (by < 4) up += b.vector[0][1];  // engine y = Blender z (up)
+            }
+        EXPECT_NEAR(power, 4 * kPi, 1e-9) << w << "x" << h;
+        EXPECT_NEAR(vx, 0.0, 1e-9);
+        EXPECT_NEAR(up, kPi, 1e-9) << w << "x" << h;
+        // Coarsening is exact too.
+        const std::vector<Bin> coarse = coarsen_bins(bins, 16, 8);
+        double up2 = 0;
+        for (int by = 0; by < 2; ++by)
+            for (int bx = 0; bx < 8; ++bx) up2 += coarse[size_t(by) * 8 + bx].vector[0][1];
+        EXPECT_NEAR(up2, kPi, 1e-9);
+    }
+}
+
+TEST(Source, TexelIntegralsMatchQuadrature) {
+    // The closed forms against a dense midpoint rule in (phi, s) on one rectangle.
+    const double u0 = 0.13, u1 = 0.31, v0 = 0.55, v1 = 0.97;
+    const LonIntegrals lon = lon_integrals(u0, u1);
+    const LatIntegrals lat = lat_integrals(v0, v1);
+    const int n = 2000;
+    Vec3d m{0, 0, 0};
+    Sh9 sh{};
+    double om = 0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const double u = u0 + (u1 - u0) * (i + 0.5) / n;
+            const double s0 = std::sin((v0 - 0.5) * kPi), s1 = std::sin((v1 - 0.5) * kPi);
+            const double s = s0 + (s1 - s0) * (j + 0.5) / n;
+            const double d_om = (u1 - u0) * 2 * kPi / n * (s1 - s0) / n;
+            const double c = std::sqrt(1 - s * s), phi = (0.5 - u) * 2 * kPi;
+            const Vec3d w = blender_to_engine(Vec3d{c * std::cos(phi), c * std::sin(phi), s});
+            m += w * d_om;
+            om += d_om;
+            const Sh9 y = sh9_basis(w);
+            for (int k = 0; k < 9; ++k) sh[k] += y[k] * d_om;
+        }
+    const Vec3d exact = rect_moment(lon, lat);
+    EXPECT_NEAR(rect_solid_angle(lon, lat), om, 1e-9);
+    EXPECT_NEAR(exact.x, m.x, 1e-7);
+    EXPECT_NEAR(exact.y, m.y, 1e-7);
+    EXPECT_NEAR(exact.z, m.z, 1e-7);
+    const Sh9 e = sh9_rect_integral(lon, lat);
+    for (int k = 0; k < 9; ++k) EXPECT_NEAR(e[k], sh[k], 1e-6) << k;  // the midpoint rule's own error
+}
+
+TEST(Source, OverlayPartitions) {
+    const auto p = overlay_partitions(3, 2);  // edges 1/3, 1/2, 2/3
+    ASSERT_EQ(p.size(), 4u);
+    EXPECT_EQ(p[1].a, 1);
+    EXPECT_EQ(p[1].b, 0);
+    EXPECT_DOUBLE_EQ(p[1].t1, 0.5);
+    EXPECT_EQ(overlay_partitions(4, 2).size(), 4u);  // nested edges: no slivers
+}
+
+TEST(Source, ShOfConstantIsDcOnly) {
+    const Image img = ref::constant_source(64, 32, 1.0f);
+    const auto sh = project_sh9(img);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(sh[c][0], 0.282095 * 4 * kPi, 1e-6);
+        for (int i = 1; i < 9; ++i) EXPECT_NEAR(sh[c][i], 0.0, 1e-9) << i;
+    }
+}
+
+TEST(Source, ShOfDirectionalLightMatchesBasis) {
+    // A single bright texel at Blender -Y (engine +Z): L_lm = P * Y_lm(+Z) to
+    // second order in the texel size.
+    Image img(256, 128);
+    const int x = int(0.75 * 256), y = 64;  // u = 0.75 is -Y, equator
+    img.at(x, y)[0] = 1.0f;
+    const auto sh = project_sh9(img);
+    const Vec3d d = blender_to_engine(latlong_texel_direction(x, y, 256, 128));
+    const Sh9 basis = sh9_basis(d);
+    const double om = latlong_row_solid_angle(y, 256, 128);
+    for (int i = 0; i < 9; ++i) EXPECT_NEAR(sh[0][i], basis[i] * om, 1e-3 * om);
+    EXPECT_GT(d.z, 0.99);
+}
+
+TEST(Source, BilinearIsExactAtTexelCentresAndWraps) {
+    Image img(4, 2);
+    for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 4; ++x) img.at(x, y)[0] = float(y * 4 + x);
+    float v[3];
+    latlong_bilinear(img, blender_to_engine(latlong_texel_direction(2, 1, 4, 2)), v);
+    EXPECT_NEAR(v[0], 6.0f, 1e-5);
+    // u = 0 (the seam) halfway between column 3 and column 0.
+    latlong_bilinear(img, blender_to_engine(latlong_to_direction(0.0, 1.0 - 0.25)), v);
+    EXPECT_NEAR(v[0], 0.5f * (3 + 0), 1e-5);
+}

@@ -71,7 +71,8 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                         {"file", primary_file("specular_" + std::to_string(i), wo)},
                         {"face_size", r.specular[i].size},
                         {"roughness", r.roughness[i]},
-                        {"samples_per_texel", r.samples_per_texel[i]}});
+                        {"samples_per_texel", r.samples_per_texel[i]},
+                        {"method", r.specular_methods[i]}});
     }
     m["specular"] = spec;
     m["specular_roughness_mapping"] = "linear: r_m = m / (M - 1)";
@@ -118,6 +119,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                     {"specular_lod_bias", bo.specular_quality.lod_bias},
                     {"specular_base_face", r.specular_base_face},
                     {"irradiance_bins", bo.irradiance_bins},
+                    {"direct_budget", bo.direct_budget},
                     {"lut_phi_points", bo.lut_quality.phi_points},
                     {"lut_u_points", bo.lut_quality.u_points},
                     {"hot_threshold", bo.hot_threshold},

@@ -68,23 +68,36 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
                 const double phi_h = p0 + pw * phi_unit.nodes[ip];
                 const double phi = side == 0 ? phi_h : kPi - phi_h;
                 const double wphi = pw * phi_unit.weights[ip];
-                const double cphi = std::cos(phi), sphi = std::sin(phi);
+                const double cphi = std::cos(phi);
                 // n.l >= 0 for theta_h <= theta_max = psi/2 + pi/4.
                 const double psi = std::atan2(sin_v * cphi, cos_v);
                 const double theta_max = 0.5 * psi + 0.25 * kPi;
                 if (theta_max <= 0.0) continue;
-                const double cm = std::cos(theta_max), sm = std::sin(theta_max);
-                const double u_max = ggx::invert_sample(alpha, cm * cm, sm * sm);
-                // Two u panels: the lobe's body, then the tail up to the limit.
-                const double ch = std::cos(0.5 * theta_max), sh = std::sin(0.5 * theta_max);
-                const double u_mid = std::min(u_max, ggx::invert_sample(alpha, ch * ch, sh * sh));
-                const double panels[3] = {0.0, u_mid, u_max};
-                for (int up = 0; up < 2; ++up) {
-                    const double u0 = panels[up], uw = panels[up + 1] - u0;
-                    if (uw <= 0.0) continue;
+                // Head [0, theta_0] in t = sqrt(u), theta_0 = min(alpha, theta_max):
+                // the peak, where u ~ theta^2. Then the tail in theta itself
+                // (du = 2 pi D cos sin dtheta) on panels growing 4x: D's poles
+                // sit at theta ~ +-i alpha, so each panel keeps them at the
+                // same relative distance and Gauss-Legendre converges at a
+                // fixed geometric rate for any alpha.
+                const double theta0 = std::min(alpha, theta_max);
+                const double c0 = std::cos(theta0), s0 = std::sin(theta0);
+                const double t0 = std::sqrt(ggx::invert_sample(alpha, c0 * c0, s0 * s0));
+                double panel_lo = 0.0, panel_hi = theta0;
+                for (int panel = 0; panel_lo < theta_max; ++panel) {
                     for (size_t iu = 0; iu < u_unit.nodes.size(); ++iu) {
-                        const double u = u0 + uw * u_unit.nodes[iu];
-                        const double cos2 = ggx::sample_cos2(alpha, u), sin2 = ggx::sample_sin2(alpha, u);
+                        double cos2, sin2, w;
+                        if (panel == 0) {
+                            const double t = t0 * u_unit.nodes[iu];
+                            cos2 = ggx::sample_cos2(alpha, t * t);
+                            sin2 = ggx::sample_sin2(alpha, t * t);
+                            w = t0 * u_unit.weights[iu] * 2.0 * t;
+                        } else {
+                            const double th = panel_lo + (panel_hi - panel_lo) * u_unit.nodes[iu];
+                            const double c = std::cos(th), sn = std::sin(th);
+                            cos2 = c * c;
+                            sin2 = sn * sn;
+                            w = (panel_hi - panel_lo) * u_unit.weights[iu] * 2.0 * kPi * ggx::D(alpha, cos2, sin2) * c * sn;
+                        }
                         const double cos_h = std::sqrt(cos2), sin_h = std::sqrt(sin2);
                         const double vdoth = sin_v * sin_h * cphi + cos_v * cos_h;
                         const double ndotl = 2.0 * vdoth * cos_h - cos_v;
@@ -93,12 +106,13 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
                                             : g1v * ggx::g1_schlick(ndotl, k);
                         const double integrand = g * vdoth / (cos_v * cos_h);
                         const double fc = std::pow(1.0 - vdoth, 5.0);
-                        const double w = wphi * uw * u_unit.weights[iu];
+                        w *= wphi;
                         a_sum += w * (1.0 - fc) * integrand;
                         b_sum += w * fc * integrand;
                     }
+                    panel_lo = panel_hi;
+                    panel_hi = std::min(theta_max, 4.0 * panel_hi);
                 }
-                (void)sphi;
             }
         }
     }

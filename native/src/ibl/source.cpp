@@ -15,17 +15,21 @@ namespace {
 // per row, and each row's exact texel solid angle.
 struct LatLongTables {
     std::vector<double> cos_phi, sin_phi, cos_lat, sin_lat, omega;
-    LatLongTables(int w, int h) : cos_phi(w), sin_phi(w), cos_lat(h), sin_lat(h), omega(h) {
+    std::vector<LonIntegrals> lon;
+    std::vector<LatIntegrals> lat;
+    LatLongTables(int w, int h) : cos_phi(w), sin_phi(w), cos_lat(h), sin_lat(h), omega(h), lon(w), lat(h) {
         for (int x = 0; x < w; ++x) {
             const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
             cos_phi[x] = std::cos(phi);
             sin_phi[x] = std::sin(phi);
+            lon[x] = lon_integrals(double(x) / w, double(x + 1) / w);
         }
         for (int y = 0; y < h; ++y) {
-            const double lat = (0.5 - (y + 0.5) / h) * kPi;
-            cos_lat[y] = std::cos(lat);
-            sin_lat[y] = std::sin(lat);
+            const double l = (0.5 - (y + 0.5) / h) * kPi;
+            cos_lat[y] = std::cos(l);
+            sin_lat[y] = std::sin(l);
             omega[y] = latlong_row_solid_angle(y, w, h);
+            lat[y] = lat_integrals(1.0 - double(y + 1) / h, 1.0 - double(y) / h);
         }
     }
     // Engine-space direction of texel (x, y).
@@ -131,7 +135,9 @@ HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
             const float scale = float(threshold / m);
             RadiancePoint p;
             const Vec3d d = tab.engine_dir(x, y);
+            const Vec3d md = rect_moment(tab.lon[x], tab.lat[y]) / tab.omega[y];
             p.dir[0] = float(d.x); p.dir[1] = float(d.y); p.dir[2] = float(d.z);
+            p.mean_dir[0] = float(md.x); p.mean_dir[1] = float(md.y); p.mean_dir[2] = float(md.z);
             for (int k = 0; k < 3; ++k) {
                 const float rest = px[k] * scale;
                 p.power[k] = float(double(px[k] - rest) * tab.omega[y]);
@@ -152,43 +158,90 @@ void VectorCloud::add(const float dir[3], const float power[3]) {
     }
 }
 
-VectorCloud reduce_to_vectors(const Image& img, int w, int h) {
+std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh) {
     const int sw = img.width, sh = img.height;
-    w = std::clamp(w, 1, sw);
-    h = std::clamp(h, 1, sh);
-    const LatLongTables tab(sw, sh);
-    // Accumulate per bin row in parallel: bin rows own disjoint source rows.
-    std::vector<double> acc(size_t(w) * h * 9, 0.0);
-    parallel_for(0, h, [&](int by) {
-        const int y0 = int((int64_t(by) * sh + h - 1) / h);  // first source row whose bin is by
-        const int y1 = int((int64_t(by + 1) * sh + h - 1) / h);
-        for (int y = y0; y < y1; ++y) {
-            for (int x = 0; x < sw; ++x) {
-                const int bx = int(int64_t(x) * w / sw);
-                const float* px = img.at(x, y);
-                const Vec3d d = tab.engine_dir(x, y) * tab.omega[y];
-                double* a = &acc[(size_t(by) * w + bx) * 9];
+    bw = std::max(1, bw);
+    bh = std::max(1, bh);
+    const std::vector<OverlayPiece> cols = overlay_partitions(sw, bw);
+    const std::vector<OverlayPiece> rows = overlay_partitions(sh, bh);  // t = 1 - v, from the top
+    std::vector<LonIntegrals> lon(cols.size());
+    for (size_t k = 0; k < cols.size(); ++k) lon[k] = lon_integrals(cols[k].t0, cols[k].t1);
+    // Row pieces of each bin row are contiguous: bin rows are independent work.
+    std::vector<size_t> first(bh + 1, rows.size());
+    for (size_t k = rows.size(); k-- > 0;) first[rows[k].b] = k;
+    std::vector<Bin> bins(size_t(bw) * bh, Bin{});
+    parallel_for(0, bh, [&](int br) {
+        for (size_t k = first[br]; k < rows.size() && rows[k].b == br; ++k) {
+            const OverlayPiece& rp = rows[k];
+            const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
+            for (size_t q = 0; q < cols.size(); ++q) {
+                const OverlayPiece& cp = cols[q];
+                const Vec3d m = rect_moment(lon[q], lat);
+                const double om = rect_solid_angle(lon[q], lat);
+                const float* px = img.at(cp.a, rp.a);
+                Bin& b = bins[size_t(br) * bw + cp.b];
                 for (int c = 0; c < 3; ++c) {
-                    a[c * 3 + 0] += d.x * px[c];
-                    a[c * 3 + 1] += d.y * px[c];
-                    a[c * 3 + 2] += d.z * px[c];
+                    b.vector[c][0] += px[c] * m.x;
+                    b.vector[c][1] += px[c] * m.y;
+                    b.vector[c][2] += px[c] * m.z;
+                    b.power[c] += px[c] * om;
                 }
+                b.moment[0] += m.x;
+                b.moment[1] += m.y;
+                b.moment[2] += m.z;
+                b.omega += om;
             }
         }
     });
+    return bins;
+}
+
+std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
+    const int w = bw / 2, h = bh / 2;
+    std::vector<Bin> out(size_t(w) * h, Bin{});
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            Bin& o = out[size_t(y) * w + x];
+            for (int dy = 0; dy < 2; ++dy)
+                for (int dx = 0; dx < 2; ++dx) {
+                    const Bin& b = bins[size_t(2 * y + dy) * bw + 2 * x + dx];
+                    for (int c = 0; c < 3; ++c) {
+                        for (int k = 0; k < 3; ++k) o.vector[c][k] += b.vector[c][k];
+                        o.power[c] += b.power[c];
+                        o.moment[c] += b.moment[c];
+                    }
+                    o.omega += b.omega;
+                }
+        }
+    return out;
+}
+
+VectorCloud vector_cloud(const std::vector<Bin>& bins) {
     VectorCloud cloud;
-    for (size_t b = 0; b < size_t(w) * h; ++b) {
-        const double* a = &acc[b * 9];
-        bool empty = true;
-        for (int k = 0; k < 9; ++k) empty = empty && a[k] == 0.0;
-        if (empty) continue;
+    for (const Bin& b : bins) {
+        if (b.power[0] == 0.0 && b.power[1] == 0.0 && b.power[2] == 0.0) continue;
         for (int c = 0; c < 3; ++c) {
-            cloud.x[c].push_back(float(a[c * 3 + 0]));
-            cloud.y[c].push_back(float(a[c * 3 + 1]));
-            cloud.z[c].push_back(float(a[c * 3 + 2]));
+            cloud.x[c].push_back(float(b.vector[c][0]));
+            cloud.y[c].push_back(float(b.vector[c][1]));
+            cloud.z[c].push_back(float(b.vector[c][2]));
         }
     }
     return cloud;
+}
+
+PointCloud point_cloud(const std::vector<Bin>& bins) {
+    PointCloud pc;
+    for (const Bin& b : bins) {
+        const Vec3d m{b.moment[0], b.moment[1], b.moment[2]};
+        const double len = length(m);
+        if (!(b.omega > 0.0) || !(len > 0.0)) continue;
+        pc.x.push_back(float(m.x / len));
+        pc.y.push_back(float(m.y / len));
+        pc.z.push_back(float(m.z / len));
+        pc.omega.push_back(float(b.omega));
+        for (int c = 0; c < 3; ++c) pc.p[c].push_back(float(b.power[c]));
+    }
+    return pc;
 }
 
 std::array<Sh9, 3> project_sh9(const Image& img) {
@@ -198,13 +251,11 @@ std::array<Sh9, 3> project_sh9(const Image& img) {
     parallel_for(0, h, [&](int y) {
         std::array<Sh9, 3> acc{};
         for (int x = 0; x < w; ++x) {
-            const Sh9 basis = sh9_basis(tab.engine_dir(x, y));
+            const Sh9 basis = sh9_rect_integral(tab.lon[x], tab.lat[y]);
             const float* px = img.at(x, y);
             for (int c = 0; c < 3; ++c)
                 for (int i = 0; i < 9; ++i) acc[c][i] += basis[i] * px[c];
         }
-        for (auto& ch : acc)
-            for (double& v : ch) v *= tab.omega[y];
         rows[y] = acc;
     });
     std::array<Sh9, 3> total{};

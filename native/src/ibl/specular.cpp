@@ -105,4 +105,53 @@ void specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector
     });
 }
 
+int direct_bins_for(double roughness) {
+    const double alpha = roughness * roughness;
+    const double need = 6.0 * kPi / std::max(1e-6, 1.3 * alpha);
+    int bins = 64;  // never coarser: the kernel's horizon kink needs them at any roughness
+    while (bins < need && bins < (1 << 16)) bins <<= 1;
+    return bins;
+}
+
+void specular_direct(Cubemap& dst, const PointCloud& rest, const std::vector<RadiancePoint>& hot, double roughness) {
+    const float a2 = float(roughness * roughness * roughness * roughness);
+    const int n = dst.size;
+    const size_t count = rest.size();
+    // K up to the constant 4 a^2 / pi, which cancels in the ratio.
+    auto kernel = [a2](float nx, float ny, float nz, float x, float y, float z) {
+        const float dx = nx - x, dy = ny - y, dz = nz - z;
+        const float omc = 0.5f * (dx * dx + dy * dy + dz * dz);
+        const float c = 1.0f - omc;
+        const float t = omc + a2 * (1.0f + c);
+        return c > 0.0f ? c / (t * t) : 0.0f;
+    };
+    parallel_for(0, 6 * n, [&](int row) {
+        const int f = row / n, j = row % n;
+        for (int i = 0; i < n; ++i) {
+            const Vec3d d = texel_direction(f, i, j, n);
+            const float nx = float(d.x), ny = float(d.y), nz = float(d.z);
+            double num[3] = {0, 0, 0}, den = 0.0;
+            constexpr size_t kBlock = 256;  // float partials, double across blocks
+            for (size_t b = 0; b < count; b += kBlock) {
+                const size_t e = std::min(count, b + kBlock);
+                float s0 = 0, s1 = 0, s2 = 0, sw = 0;
+                for (size_t p = b; p < e; ++p) {
+                    const float k = kernel(nx, ny, nz, rest.x[p], rest.y[p], rest.z[p]);
+                    s0 += k * rest.p[0][p];
+                    s1 += k * rest.p[1][p];
+                    s2 += k * rest.p[2][p];
+                    sw += k * rest.omega[p];
+                }
+                num[0] += s0; num[1] += s1; num[2] += s2; den += sw;
+            }
+            for (const RadiancePoint& h : hot) {
+                const float k = kernel(nx, ny, nz, h.dir[0], h.dir[1], h.dir[2]);
+                for (int c = 0; c < 3; ++c) num[c] += double(k) * h.power[c];
+            }
+            float* o = dst.at(f, i, j);
+            for (int c = 0; c < 3; ++c) o[c] = den > 0.0 ? float(num[c] / den) : 0.0f;
+        }
+    });
+}
+
 }  // namespace iblbake

@@ -33,7 +33,8 @@ struct BakeOptions {
     SpecularQuality specular_quality;
     LutQuality lut_quality;
     int specular_base_face = 0;       // rest cube for filtered lookups; 0: automatic
-    int irradiance_bins = 128;        // lat-long bins across (half as many down)
+    int irradiance_bins = 128;        // lat-long bins across (half as many down), a power of two
+    double direct_budget = 1.5e8;     // kernel evaluations a specular level may spend on a direct sum
     int irradiance_exact_face = 64;   // larger irradiance faces are resampled from this
     double hot_threshold = 16.0;      // hot texels: above this times the mean ...
     int max_hot = 1024;               // ... and at most this many
@@ -61,6 +62,7 @@ struct BakeResult {
     double hot_threshold = 0.0, hot_power_fraction = 0.0;
     int specular_base_face = 0;
     std::vector<size_t> samples_per_texel;  // per specular level
+    std::vector<std::string> specular_methods;
 };
 
 struct Cancelled : std::runtime_error {

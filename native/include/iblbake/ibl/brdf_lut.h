@@ -11,19 +11,21 @@ const char* lut_model_name(LutModel m);
 LutModel lut_model_from_name(const std::string& name);  // throws std::invalid_argument
 
 struct LutQuality {
-    int phi_points = 8;   // Gauss-Legendre nodes per azimuth panel
-    int u_points = 12;    // Gauss-Legendre nodes per panel of the CDF variable
+    int phi_points = 4;   // Gauss-Legendre nodes per azimuth panel
+    int u_points = 8;     // Gauss-Legendre nodes per theta_h panel
 };
 
 struct LutValue { double a, b; };
 
-// A and B at one (NdotV, r). Deterministic quadrature in the half vector's
-// (phi, u): u is GGX's CDF variable, so D cos(theta_h) dh = du dphi / 2pi and
-// the integrand is G (v.h) / (NdotV cos theta_h) times (1 - Fc) or Fc. n.l
+// A and B at one (NdotV, r). Deterministic quadrature over the half vector:
+// with u GGX's CDF variable, D cos(theta_h) dh = du dphi / 2pi and the
+// integrand is G (v.h) / (NdotV cos theta_h) times (1 - Fc) or Fc. n.l
 // changes sign at theta_h = psi/2 + pi/4 with psi = atan2(sin_v cos(phi),
-// cos_v): the u integral stops exactly there, so the integrand has no kink.
-// Azimuth panels are graded toward phi = pi/2, where that limit swings from
-// pi/2 to 0 over a width of about NdotV at grazing angles.
+// cos_v): the theta_h integral stops exactly there, so the integrand has no
+// kink. In theta_h: a head panel [0, min(alpha, theta_max)] in t = sqrt(u),
+// then panels growing 4x in theta_h (D's poles sit at +-i alpha). Azimuth
+// panels are graded toward phi = pi/2, where the limit swings from pi/2 to 0
+// over a width of about NdotV at grazing angles.
 //   karis:              Schlick-GGX G, k = alpha / 2 (the seed shader, UE4)
 //   height-correlated:  Smith G2 = 1 / (1 + Lambda(v) + Lambda(l))
 //   multiscatter:       height-correlated, with Turquin 2019's energy

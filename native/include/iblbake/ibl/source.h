@@ -28,7 +28,8 @@ void latlong_bilinear(const Image& img, const Vec3d& engine_dir, float out[3]);
 // A source texel (or a block of them) as a point: engine direction and power
 // (radiance times solid angle) per channel.
 struct RadiancePoint {
-    float dir[3];
+    float dir[3];       // centre direction
+    float mean_dir[3];  // (integral of w over the texel) / solid angle: |mean_dir| < 1
     float power[3];
 };
 
@@ -45,23 +46,42 @@ struct HotSplit {
 };
 HotSplit split_hot(const Image& img, double relative_threshold, int max_hot);
 
-// "Vector power" of a set of texels, per channel c: V_c = sum_t L_t,c Omega_t w_t.
-// For a normal n that sees every texel of the set from its lit side,
-// sum_t L_t,c Omega_t max(0, n.w_t) = n.V_c exactly, which makes a reduced
-// cloud of such vectors an exact cosine integrator except for the few sets
-// that straddle n's horizon. Stored structure-of-arrays for the hot loop.
+// An energy-exact reduction of a lat-long image to a grid of bw x bh bins
+// overlaid on its texels (texels are split where bins cut them, so any source
+// size works, 1 x 1 included). Radiance is texel-constant; every integral is
+// exact (math/latlong.h).
+struct Bin {
+    double vector[3][3];  // per channel: integral of L_c w dOmega (engine space)
+    double power[3];      // per channel: integral of L_c dOmega
+    double moment[3];     // integral of w dOmega
+    double omega;         // solid angle
+};
+std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh);
+// The same reduction at bw/2 x bh/2 (even sizes): 2 x 2 blocks summed, exactly.
+std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh);
+
+// "Vector power" of the bins, per channel c: V_c = integral of L_c w dOmega.
+// For a normal n that sees a whole bin from its lit side,
+// integral of L_c max(0, n.w) dOmega = n.V_c exactly, which makes the cloud an
+// exact cosine integrator except for the few bins that straddle n's horizon.
+// Stored structure-of-arrays for the hot loop.
 struct VectorCloud {
     std::vector<float> x[3], y[3], z[3];
     size_t size() const { return x[0].size(); }
     void add(const float dir[3], const float power[3]);
 };
+VectorCloud vector_cloud(const std::vector<Bin>& bins);
 
-// Energy-exact reduction: texels are binned into a `w` x `h` lat-long grid
-// (each texel to the bin holding its centre); a bin becomes its vector power.
-VectorCloud reduce_to_vectors(const Image& img, int w, int h);
+// Bins as points (unit centroid direction, solid angle, power) for direct
+// kernel sums, structure-of-arrays.
+struct PointCloud {
+    std::vector<float> x, y, z, omega, p[3];
+    size_t size() const { return x.size(); }
+};
+PointCloud point_cloud(const std::vector<Bin>& bins);
 
-// Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5),
-// summed over every texel with its exact solid angle, in double.
+// Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5):
+// every texel's exact basis integral (texel-constant radiance), in double.
 std::array<Sh9, 3> project_sh9(const Image& img);
 
 // Solid-angle-weighted mean radiance per channel.

@@ -39,4 +39,14 @@ void specular_mirror(Cubemap& dst, const Image& latlong);
 void specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector<RadiancePoint>& hot,
                         double roughness, const SpecularQuality& q);
 
+// Level for roughness r > 0 by a direct kernel sum over a point cloud of the
+// rest (ibl/source.h) for lobes that span several bins:
+//   Pre(n) = (sum_p P_p K(n.d_p) + sum_hot P_h K(n.d_h)) / sum_p Omega_p K(n.d_p).
+// Self-normalised like the definition, so a constant world gives exactly 1.
+void specular_direct(Cubemap& dst, const PointCloud& rest, const std::vector<RadiancePoint>& hot, double roughness);
+
+// Bins across (lat-long, power of two) a direct sum needs for roughness r:
+// about six per half-width of the lobe (1.3 alpha radians in w), at least 64.
+int direct_bins_for(double roughness);
+
 }  // namespace iblbake

@@ -1,6 +1,7 @@
 // Latitude-longitude mapping of SPEC.md section 1 (Blender world space, +Z up).
 #pragma once
 #include <cmath>
+#include <vector>
 
 #include "iblbake/math/vec3.h"
 
@@ -34,5 +35,36 @@ inline double latlong_row_solid_angle(int row, int w, int h) {
     // sin a - sin b = 2 cos((a+b)/2) sin((a-b)/2): no cancellation near the poles.
     return (2.0 * kPi / w) * 2.0 * std::cos(0.5 * (top + bottom)) * std::sin(0.5 * (top - bottom));
 }
+
+}  // namespace iblbake
+
+namespace iblbake {
+
+// Exact integrals over a lat-long rectangle u in [u0, u1], v in [v0, v1]
+// (SPEC.md section 1) with dOmega = dphi ds, s = sin(latitude). They make
+// per-texel moments exact for a texel-constant radiance: the vector moment
+// (integral of w dOmega) and the SH projection. Each factorises into a
+// longitude part and a latitude part.
+struct LonIntegrals {  // over phi: 1, cos, sin, cos^2, sin^2, sin cos
+    double p0, pc, ps, pcc, pss, psc;
+};
+struct LatIntegrals {  // over s: 1, s, s^2, sqrt(1-s^2), s sqrt(1-s^2), 1-s^2
+    double s0, s1, s2, c0, c1, q;
+};
+LonIntegrals lon_integrals(double u0, double u1);
+LatIntegrals lat_integrals(double v0, double v1);
+
+// Engine-space vector moment: integral of w dOmega over the rectangle.
+Vec3d rect_moment(const LonIntegrals& lon, const LatIntegrals& lat);
+// Solid angle of the rectangle.
+inline double rect_solid_angle(const LonIntegrals& lon, const LatIntegrals& lat) { return lon.p0 * lat.s0; }
+
+// Overlay of two partitions of [0, 1] into n_a and n_b equal cells: the
+// pieces (a cell of each) in order, with their extents.
+struct OverlayPiece {
+    int a, b;
+    double t0, t1;
+};
+std::vector<OverlayPiece> overlay_partitions(int n_a, int n_b);
 
 }  // namespace iblbake
