@@ -7,7 +7,7 @@
 PYBIND11_MODULE(iblbake_core, m) {
     m.doc() = "iblbake native core: bake image-based lighting from a lat-long environment (SPEC.md contract 1)";
     m.attr("CONTRACT") = 1;
-    static pybind11::exception<iblbake::Cancelled> cancelled(m, "Cancelled", PyExc_RuntimeError);
+    pybind11::register_exception<iblbake::Cancelled>(m, "Cancelled", PyExc_RuntimeError);
     pybind11::register_exception_translator([](std::exception_ptr p) {
         try {
             if (p) std::rethrow_exception(p);
