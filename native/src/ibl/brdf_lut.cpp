@@ -35,7 +35,7 @@ namespace {
 std::vector<double> azimuth_breaks(double ndotv) {
     std::vector<double> breaks = {0.0};
     double d = 0.5 * kPi;
-    const double finest = std::max(0.25 * ndotv, 1e-7);
+    const double finest = std::max(0.5 * ndotv, 1e-7);
     while (d > finest) {
         d *= 0.25;
         breaks.push_back(0.5 * kPi - d);
@@ -105,7 +105,8 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
                         const double g = hc ? 1.0 / (1.0 + lambda_v + ggx::smith_lambda(ndotl, alpha))
                                             : g1v * ggx::g1_schlick(ndotl, k);
                         const double integrand = g * vdoth / (cos_v * cos_h);
-                        const double fc = std::pow(1.0 - vdoth, 5.0);
+                        const double m = 1.0 - vdoth, m2 = m * m;
+                        const double fc = m2 * m2 * m;
                         w *= wphi;
                         a_sum += w * (1.0 - fc) * integrand;
                         b_sum += w * fc * integrand;
