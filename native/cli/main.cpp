@@ -1,6 +1,7 @@
 // iblbake CLI: parses arguments and calls bake_file(). No integration here.
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -16,7 +17,7 @@ int main(int argc, char** argv) {
 
     BakeOptions bo;
     WriteOptions wo;
-    std::string source, outdir, model = "karis", encoding = "srgb";
+    std::string source, outdir, model = "karis", encoding = "srgb", method = "hierarchical";
     std::vector<std::string> formats = {"exr"};
     int samples = 0;
     bool no_irr = false, no_spec = false, no_lut = false, quiet = false;
@@ -30,12 +31,17 @@ int main(int argc, char** argv) {
     bake->add_option("--lut-size", bo.lut_size, "BRDF LUT size (N x N)")->capture_default_str();
     bake->add_option("--lut-model", model, "BRDF LUT model: karis, height-correlated, multiscatter")
         ->capture_default_str();
-    bake->add_option("--samples", samples,
-                     "specular samples per texel, approximately (sets --rings to sqrt(S)/2 and the azimuthal cap "
-                     "to 2 sqrt(S); default 576)");
-    bake->add_option("--rings", bo.specular_quality.rings, "specular quadrature rings per texel")
+    bake->add_option("--specular-method", method,
+                     "hierarchical (deterministic kernel sum over exact bins) or fis (filtered importance sampling)")
         ->capture_default_str();
-    bake->add_option("--lod-bias", bo.specular_quality.lod_bias, "mip bias of filtered lookups")
+    bake->add_option("--eps", bo.hierarchical.eps,
+                     "hierarchical: bin size against the kernel's length scale; error grows as eps^2")
+        ->capture_default_str();
+    bake->add_option("--samples", samples,
+                     "fis: samples per texel, approximately (sets --rings to sqrt(S)/2 and the azimuthal cap to "
+                     "2 sqrt(S); default 576)");
+    bake->add_option("--rings", bo.specular_quality.rings, "fis: quadrature rings per texel")->capture_default_str();
+    bake->add_option("--lod-bias", bo.specular_quality.lod_bias, "fis: mip bias of filtered lookups")
         ->capture_default_str();
     bake->add_option("--format", formats, "output formats: exr, png (repeat or comma-separate)")
         ->delimiter(',')
@@ -71,6 +77,7 @@ int main(int argc, char** argv) {
 
     try {
         bo.lut_model = lut_model_from_name(model);
+        bo.specular_method = specular_method_from_name(method);
         if (samples > 0) {
             bo.specular_quality.rings = std::max(1, int(std::lround(std::sqrt(double(samples)) / 2.0)));
             bo.specular_quality.max_phi = std::max(bo.specular_quality.min_phi,

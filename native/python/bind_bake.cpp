@@ -46,6 +46,9 @@ void parse_options(const pybind11::dict& kw, BakeOptions& bo, WriteOptions& wo, 
         else if (key == "irradiance") bo.irradiance = as_bool();
         else if (key == "specular") bo.specular = as_bool();
         else if (key == "lut") bo.lut = as_bool();
+        else if (key == "specular_method") bo.specular_method = specular_method_from_name(as_str());
+        else if (key == "eps") bo.hierarchical.eps = as_float();
+        else if (key == "tile") bo.hierarchical.tile = as_int();
         else if (key == "rings") bo.specular_quality.rings = as_int();
         else if (key == "min_phi") bo.specular_quality.min_phi = as_int();
         else if (key == "max_phi") bo.specular_quality.max_phi = as_int();
@@ -194,7 +197,8 @@ void bind_bake(pybind11::module_& m) {
 With out_dir, writes SPEC.md's files there atomically. Always returns a dict with
 'irradiance' (6, N, N, 3), 'specular' (list of (6, n, n, 3)), 'roughness', 'brdf_lut' (N, N, 3),
 'sh9' (3, 9), 'bad_input', 'timings' and 'manifest'. Options (keywords): face_size, irradiance_size,
-mip_count, lut_size, lut_model, irradiance, specular, lut, rings, min_phi, max_phi, lod_bias,
+mip_count, lut_size, lut_model, irradiance, specular, lut, specular_method ('hierarchical' or 'fis'),
+eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
 specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
 hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
 rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path.

@@ -69,6 +69,8 @@ int main(int argc, char** argv) {
         else if (k == "--rings") o.specular_quality.rings = int(v);
         else if (k == "--lod-bias") o.specular_quality.lod_bias = float(v);
         else if (k == "--base") o.specular_base_face = int(v);
+        else if (k == "--eps") o.hierarchical.eps = v;
+        else if (k == "--tile") o.hierarchical.tile = int(v);
         else if (k == "--max-phi") o.specular_quality.max_phi = int(v);
         else { std::fprintf(stderr, "unknown option %s\n", k.c_str()); return 2; }
     }

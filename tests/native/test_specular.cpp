@@ -70,6 +70,31 @@ TEST(Specular, ConstantWorldGivesOneAtEveryMip) {
     }
 }
 
+TEST(Specular, FisOptionAlsoGivesOneOnConstantWorldAndStaysClose) {
+    BakeOptions o = specular_only(32, 6);
+    o.specular_method = SpecularMethod::Fis;
+    const BakeResult r = compute_bake(ref::constant_source(128, 64, 1.0f), o);
+    for (size_t m = 0; m < r.specular.size(); ++m)
+        for (float v : r.specular[m].pixels) ASSERT_NEAR(v, 1.0f, 1e-3f) << "mip " << m;
+    const Image src = ref::random_smooth_source(256, 128, 21);
+    const BakeResult f = compute_bake(src, o);
+    for (size_t m = 1; m < f.specular.size(); ++m)
+        EXPECT_LT(compare_level(f.specular[m], src, f.roughness[m]).rms_rel, 2e-2) << "fis mip " << m;
+}
+
+TEST(Specular, ErrorFallsWithEps) {
+    const Image src = ref::sun_source(256, 128, {0.4, 0.6, 0.3}, 1.0, 5e4f, 0.3f);
+    double previous = 1e9;
+    for (double eps : {0.5, 0.25, 0.12}) {
+        BakeOptions o = specular_only(16, 3);
+        o.hierarchical.eps = eps;
+        const BakeResult r = compute_bake(src, o);
+        const double e = compare_level(r.specular[1], src, r.roughness[1]).rms_rel;
+        EXPECT_LT(e, previous) << eps;
+        previous = e;
+    }
+}
+
 TEST(Specular, MipZeroIsTheBilinearSource) {
     const Image src = ref::random_smooth_source(64, 32, 5);
     const BakeResult r = compute_bake(src, specular_only(16, 1));

@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <map>
 
+#include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/irradiance.h"
 
@@ -52,6 +52,16 @@ auto in_arena(int threads, Fn&& fn) {
 
 }  // namespace
 
+const char* specular_method_name(SpecularMethod m) {
+    return m == SpecularMethod::Fis ? "fis" : "hierarchical";
+}
+
+SpecularMethod specular_method_from_name(const std::string& name) {
+    if (name == "hierarchical") return SpecularMethod::Hierarchical;
+    if (name == "fis") return SpecularMethod::Fis;
+    throw std::invalid_argument("unknown specular method '" + name + "' (expected hierarchical or fis)");
+}
+
 void BakeOptions::validate() const {
     check(face_size >= 1 && face_size <= 8192, "face_size must be in 1..8192");
     check(irradiance_size >= 1 && irradiance_size <= 8192, "irradiance_size must be in 1..8192");
@@ -70,7 +80,9 @@ void BakeOptions::validate() const {
           "specular_base_face must be 0 (automatic) or a power of two up to 4096");
     check(irradiance_bins >= 2 && irradiance_bins <= 4096 && (irradiance_bins & (irradiance_bins - 1)) == 0,
           "irradiance_bins must be a power of two in 2..4096");
-    check(direct_budget >= 0.0, "direct_budget must be >= 0");
+    check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.01 && hierarchical.eps <= 2.0,
+          "specular eps must be in 0.01..2");
+    check(hierarchical.tile >= 1 && hierarchical.tile <= 256, "specular tile must be in 1..256");
     check(irradiance_exact_face >= 1 && irradiance_exact_face <= 4096, "irradiance_exact_face must be in 1..4096");
     check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
     check(max_hot >= 0 && max_hot <= 1 << 20, "max_hot must be in 0..1048576");
@@ -115,7 +127,8 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
         r.sh9 = project_sh9(source);
         clock.done("sh9");
 
-        const bool need_split = o.irradiance || (o.specular && mips > 1);
+        const bool need_split =
+            o.irradiance || (o.specular && mips > 1 && o.specular_method == SpecularMethod::Fis);
         HotSplit split;
         if (need_split) {
             split = split_hot(source, o.hot_threshold, o.max_hot);
@@ -126,39 +139,6 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
         }
         advance(0.05);
 
-        // Bins of the rest, by width (bw x bw/2), reduced once and coarsened.
-        std::map<int, std::vector<Bin>> bin_levels;
-        auto bins_at = [&](int bw) -> const std::vector<Bin>& {
-            auto it = bin_levels.find(bw);
-            if (it != bin_levels.end()) return it->second;
-            auto finer = bin_levels.upper_bound(bw);
-            if (finer != bin_levels.end()) {
-                std::vector<Bin> b = finer->second;
-                for (int w = finer->first; w > bw; w /= 2) b = coarsen_bins(b, w, w / 2);
-                return bin_levels[bw] = std::move(b);
-            }
-            return bin_levels[bw] = reduce_to_bins(split.rest, bw, bw / 2);
-        };
-        // How each specular level is made: r = 0 is the source lookup; a
-        // lobe wide enough for a direct sum within the budget is summed
-        // exactly over bins; narrower lobes use filtered importance sampling.
-        enum class Method { Mirror, Direct, Fis };
-        std::vector<Method> method(o.specular ? mips : 0);
-        int finest_bins = o.irradiance ? o.irradiance_bins : 0;
-        bool any_fis = false;
-        for (size_t m = 0; m < method.size(); ++m) {
-            const double rough = o.mip_roughness(int(m));
-            const int n = std::max(1, o.face_size >> m), bw = rough > 0.0 ? direct_bins_for(rough) : 0;
-            method[m] = rough == 0.0 ? Method::Mirror
-                        : 6.0 * n * n * bw * (bw / 2) <= o.direct_budget ? Method::Direct : Method::Fis;
-            if (method[m] == Method::Direct) finest_bins = std::max(finest_bins, bw);
-            any_fis = any_fis || method[m] == Method::Fis;
-        }
-        if (finest_bins > 0) {  // read the source once, at the finest grid; coarser ones are sums
-            bins_at(finest_bins);
-            clock.done("bins");
-        }
-
         auto skip = [&](const char* what) {
             for (const Skip& s : o.skip_reasons)
                 if (s.what == what) { r.skipped.push_back(s); return; }
@@ -167,7 +147,7 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
 
         if (o.irradiance) {
             report("irradiance", done);
-            VectorCloud cloud = vector_cloud(bins_at(o.irradiance_bins));
+            VectorCloud cloud = vector_cloud(reduce_to_bins(split.rest, o.irradiance_bins, o.irradiance_bins / 2));
             for (const RadiancePoint& p : split.hot) cloud.add(p.mean_dir, p.power);
             Cubemap irr(o.irradiance_size);
             irradiance_convolve(irr, cloud, o.irradiance_exact_face);
@@ -180,8 +160,10 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
 
         if (o.specular) {
             report("specular", done);
+            const bool fis = o.specular_method == SpecularMethod::Fis;
             CubePyramid pyramid;
-            if (any_fis) {
+            BinTree tree;
+            if (mips > 1 && fis) {
                 // The rest cube must resolve the narrowest lobe (about alpha_1
                 // radians wide) but need not be finer than the source.
                 const double r1 = o.mip_roughness(1), a1 = r1 * r1;
@@ -194,22 +176,29 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
                 latlong_to_cube(cube, split.rest, ss);
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
+            } else if (mips > 1) {
+                // Finest bins: small enough for the narrowest lobe (radius
+                // <= eps * 2 alpha_1), never finer than the source.
+                const double r1 = o.mip_roughness(1), a1 = r1 * r1;
+                const int need = pow2_ceil(2.2 / (o.hierarchical.eps * a1));
+                const int finest = std::clamp(std::min(need, pow2_ceil(source.width)), 2, 8192);
+                r.specular_base_face = finest;
+                tree = build_bin_tree(source, finest);
+                clock.done("bin_tree");
             }
             for (int m = 0; m < mips; ++m) {
                 const int n = std::max(1, o.face_size >> m);
                 const double rough = o.mip_roughness(m);
                 Cubemap level(n);
-                if (method[m] == Method::Mirror) {
+                if (rough == 0.0) {
                     specular_mirror(level, source);
                     r.samples_per_texel.push_back(1);
                     r.specular_methods.push_back("bilinear source lookup");
-                } else if (method[m] == Method::Direct) {
-                    const int bw = direct_bins_for(rough);
-                    const PointCloud pc = point_cloud(bins_at(bw));
-                    specular_direct(level, pc, split.hot, rough);
-                    r.samples_per_texel.push_back(pc.size() + split.hot.size());
-                    r.specular_methods.push_back("direct kernel sum over " + std::to_string(bw) + "x" +
-                                                 std::to_string(bw / 2) + " bins + hot texels");
+                } else if (!fis) {
+                    const double bins = specular_hierarchical(level, tree, rough, o.hierarchical);
+                    r.samples_per_texel.push_back(size_t(std::lround(bins)));
+                    r.specular_methods.push_back("hierarchical kernel sum over exact bins (eps " +
+                                                 std::to_string(o.hierarchical.eps).substr(0, 4) + ")");
                 } else {
                     specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality);
                     r.samples_per_texel.push_back(

@@ -229,21 +229,6 @@ VectorCloud vector_cloud(const std::vector<Bin>& bins) {
     return cloud;
 }
 
-PointCloud point_cloud(const std::vector<Bin>& bins) {
-    PointCloud pc;
-    for (const Bin& b : bins) {
-        const Vec3d m{b.moment[0], b.moment[1], b.moment[2]};
-        const double len = length(m);
-        if (!(b.omega > 0.0) || !(len > 0.0)) continue;
-        pc.x.push_back(float(m.x / len));
-        pc.y.push_back(float(m.y / len));
-        pc.z.push_back(float(m.z / len));
-        pc.omega.push_back(float(b.omega));
-        for (int c = 0; c < 3; ++c) pc.p[c].push_back(float(b.power[c]));
-    }
-    return pc;
-}
-
 std::array<Sh9, 3> project_sh9(const Image& img) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);

@@ -105,53 +105,113 @@ void specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector
     });
 }
 
-int direct_bins_for(double roughness) {
-    const double alpha = roughness * roughness;
-    const double need = 6.0 * kPi / std::max(1e-6, 1.3 * alpha);
-    int bins = 64;  // never coarser: the kernel's horizon kink needs them at any roughness
-    while (bins < need && bins < (1 << 16)) bins <<= 1;
-    return bins;
-}
-
-void specular_direct(Cubemap& dst, const PointCloud& rest, const std::vector<RadiancePoint>& hot, double roughness) {
-    const float a2 = float(roughness * roughness * roughness * roughness);
-    const int n = dst.size;
-    const size_t count = rest.size();
-    // K up to the constant 4 a^2 / pi, which cancels in the ratio.
+double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q) {
+    const float alpha = float(roughness * roughness), a2 = alpha * alpha;
+    // The lobe's angular length scale in w: 2 alpha for narrow lobes, about
+    // one radian (the cosine's) as alpha -> 1.
+    const float scale = 2.0f * alpha / (1.0f + alpha);
+    const float eps = float(q.eps);
+    // K = D(h) max(0, n.w) has a kink at n's horizon with slope D(45 deg);
+    // relative to the kernel's integral Z that slope sets how small bins that
+    // straddle a horizon must be: length scale 0.1 / sqrt(D45 / Z).
+    const double d45 = 4.0 * a2 / (kPi * (1.0 + a2) * (1.0 + a2));
+    const float horizon_scale = float(std::min(kPi, 0.1 / std::sqrt(d45 / ggx::prefilter_normalizer(alpha))));
+    const int n = dst.size, T = std::max(1, std::min(q.tile, n));
+    const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
+    const int top = int(tree.levels.size()) - 1;
+    std::vector<double> used(tiles, 0.0);
     auto kernel = [a2](float nx, float ny, float nz, float x, float y, float z) {
         const float dx = nx - x, dy = ny - y, dz = nz - z;
-        const float omc = 0.5f * (dx * dx + dy * dy + dz * dz);
+        const float omc = 0.5f * (dx * dx + dy * dy + dz * dz);  // 1 - n.w
         const float c = 1.0f - omc;
         const float t = omc + a2 * (1.0f + c);
-        return c > 0.0f ? c / (t * t) : 0.0f;
+        return c > 0.0f ? c / (t * t) : 0.0f;  // K up to 4 a^2 / pi, which cancels
     };
-    parallel_for(0, 6 * n, [&](int row) {
-        const int f = row / n, j = row % n;
-        for (int i = 0; i < n; ++i) {
-            const Vec3d d = texel_direction(f, i, j, n);
-            const float nx = float(d.x), ny = float(d.y), nz = float(d.z);
-            double num[3] = {0, 0, 0}, den = 0.0;
-            constexpr size_t kBlock = 256;  // float partials, double across blocks
-            for (size_t b = 0; b < count; b += kBlock) {
-                const size_t e = std::min(count, b + kBlock);
-                float s0 = 0, s1 = 0, s2 = 0, sw = 0;
-                for (size_t p = b; p < e; ++p) {
-                    const float k = kernel(nx, ny, nz, rest.x[p], rest.y[p], rest.z[p]);
-                    s0 += k * rest.p[0][p];
-                    s1 += k * rest.p[1][p];
-                    s2 += k * rest.p[2][p];
-                    sw += k * rest.omega[p];
-                }
-                num[0] += s0; num[1] += s1; num[2] += s2; den += sw;
+    parallel_for(0, tiles, [&](int tile) {
+        const int face = tile / (tiles_per_row * tiles_per_row);
+        const int ty = (tile / tiles_per_row) % tiles_per_row, tx = tile % tiles_per_row;
+        const int i0 = tx * T, j0 = ty * T, i1 = std::min(n, i0 + T), j1 = std::min(n, j0 + T);
+        // The tile: texel directions, centre, angular radius.
+        std::vector<Vec3> dirs;
+        Vec3d sum{0, 0, 0};
+        for (int j = j0; j < j1; ++j)
+            for (int i = i0; i < i1; ++i) {
+                const Vec3d d = texel_direction(face, i, j, n);
+                dirs.emplace_back(d);
+                sum += d;
             }
-            for (const RadiancePoint& h : hot) {
-                const float k = kernel(nx, ny, nz, h.dir[0], h.dir[1], h.dir[2]);
-                for (int c = 0; c < 3; ++c) num[c] += double(k) * h.power[c];
+        const Vec3 c(normalize(sum));
+        float min_cos = 1.0f;
+        for (const Vec3& d : dirs) min_cos = std::min(min_cos, dot(c, d));
+        const float rho = std::acos(std::clamp(min_cos, -1.0f, 1.0f)) + 1e-6f;
+
+        // Traverse: accept a bin whole when it is small against the kernel's
+        // length scale at its least distance from the tile.
+        thread_local std::vector<float> acc[10];
+        thread_local std::vector<int> stack;
+        for (auto& a : acc) a.clear();
+        stack.clear();
+        const BinLevel& coarsest = tree.levels[top];
+        for (int y = 0; y < coarsest.h; ++y)
+            for (int x = 0; x < coarsest.w; ++x) stack.push_back((top << 26) | (y << 13) | x);
+        while (!stack.empty()) {
+            const int code = stack.back();
+            stack.pop_back();
+            const int lvl = code >> 26, y = (code >> 13) & 8191, x = code & 8191;
+            const BinLevel& L = tree.levels[lvl];
+            const size_t b = L.index(x, y);
+            if (!(L.omega[b] > 0.0f)) continue;
+            const float cosd = c.x * L.cx[b] + c.y * L.cy[b] + c.z * L.cz[b];
+            const float d = std::acos(std::clamp(cosd, -1.0f, 1.0f));
+            const float beta = L.radius[b];
+            if (d - beta - rho >= 0.5f * float(kPi)) continue;  // behind every texel's horizon
+            const float dmin = std::max(0.0f, d - beta - rho);
+            const bool near_horizon = std::fabs(d - 0.5f * float(kPi)) <= beta + rho;
+            const float length_scale = near_horizon ? std::min(horizon_scale, std::max(scale, dmin))
+                                                    : std::max(scale, dmin);
+            if (lvl == 0 || beta <= eps * length_scale) {
+                acc[0].push_back(L.px[b]); acc[1].push_back(L.py[b]); acc[2].push_back(L.pz[b]);
+                acc[3].push_back(L.cx[b]); acc[4].push_back(L.cy[b]); acc[5].push_back(L.cz[b]);
+                acc[6].push_back(L.power[0][b]); acc[7].push_back(L.power[1][b]); acc[8].push_back(L.power[2][b]);
+                acc[9].push_back(L.omega[b]);
+            } else {
+                const int cl = lvl - 1;
+                for (int dy = 0; dy < 2; ++dy)
+                    for (int dx = 0; dx < 2; ++dx)
+                        stack.push_back((cl << 26) | ((2 * y + dy) << 13) | (2 * x + dx));
             }
-            float* o = dst.at(f, i, j);
-            for (int c = 0; c < 3; ++c) o[c] = den > 0.0 ? float(num[c] / den) : 0.0f;
         }
+        const size_t count = acc[0].size();
+        used[tile] = double(count);
+        const float *px = acc[0].data(), *py = acc[1].data(), *pz = acc[2].data();
+        const float *cx = acc[3].data(), *cy = acc[4].data(), *cz = acc[5].data();
+        const float *p0 = acc[6].data(), *p1 = acc[7].data(), *p2 = acc[8].data(), *om = acc[9].data();
+        size_t k = 0;
+        for (int j = j0; j < j1; ++j)
+            for (int i = i0; i < i1; ++i, ++k) {
+                const Vec3& nn = dirs[k];
+                double num[3] = {0, 0, 0}, den = 0.0;
+                constexpr size_t kBlock = 512;  // float partials, double across blocks
+                for (size_t s = 0; s < count; s += kBlock) {
+                    const size_t e = std::min(count, s + kBlock);
+                    float s0 = 0, s1 = 0, s2 = 0, sw = 0;
+                    for (size_t p = s; p < e; ++p) {
+                        const float kp = kernel(nn.x, nn.y, nn.z, px[p], py[p], pz[p]);
+                        const float kc = kernel(nn.x, nn.y, nn.z, cx[p], cy[p], cz[p]);
+                        s0 += kp * p0[p];
+                        s1 += kp * p1[p];
+                        s2 += kp * p2[p];
+                        sw += kc * om[p];
+                    }
+                    num[0] += s0; num[1] += s1; num[2] += s2; den += sw;
+                }
+                float* o = dst.at(face, i, j);
+                for (int ch = 0; ch < 3; ++ch) o[ch] = den > 0.0 ? float(num[ch] / den) : 0.0f;
+            }
     });
+    double total = 0.0;
+    for (double u : used) total += u;
+    return total / tiles;
 }
 
 }  // namespace iblbake

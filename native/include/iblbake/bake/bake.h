@@ -21,6 +21,14 @@ struct Skip {
     std::string what, why;
 };
 
+enum class SpecularMethod {
+    Hierarchical,  // deterministic Barnes-Hut kernel sum over exact bins (default)
+    Fis,           // filtered importance sampling of a cube pyramid + exact hot texels
+};
+
+const char* specular_method_name(SpecularMethod m);
+SpecularMethod specular_method_from_name(const std::string& name);  // throws std::invalid_argument
+
 struct BakeOptions {
     int face_size = 256;        // specular mip 0
     int irradiance_size = 32;
@@ -30,11 +38,12 @@ struct BakeOptions {
     bool irradiance = true, specular = true, lut = true;
     std::vector<Skip> skip_reasons;  // why an output is off (else "disabled by option")
 
-    SpecularQuality specular_quality;
+    SpecularMethod specular_method = SpecularMethod::Hierarchical;
+    HierarchicalQuality hierarchical;
+    SpecularQuality specular_quality;  // for SpecularMethod::Fis
     LutQuality lut_quality;
-    int specular_base_face = 0;       // rest cube for filtered lookups; 0: automatic
+    int specular_base_face = 0;       // FIS: rest cube face; 0: automatic
     int irradiance_bins = 128;        // lat-long bins across (half as many down), a power of two
-    double direct_budget = 1.5e8;     // kernel evaluations a specular level may spend on a direct sum
     int irradiance_exact_face = 64;   // larger irradiance faces are resampled from this
     double hot_threshold = 16.0;      // hot texels: above this times the mean ...
     int max_hot = 1024;               // ... and at most this many
@@ -60,8 +69,8 @@ struct BakeResult {
     std::array<double, 3> mean_radiance{};
     size_t hot_texels = 0;
     double hot_threshold = 0.0, hot_power_fraction = 0.0;
-    int specular_base_face = 0;
-    std::vector<size_t> samples_per_texel;  // per specular level
+    int specular_base_face = 0;  // FIS: rest cube face; hierarchical: finest bins across
+    std::vector<size_t> samples_per_texel;  // per specular level (bins per texel, hierarchical)
     std::vector<std::string> specular_methods;
 };
 

@@ -72,14 +72,6 @@ struct VectorCloud {
 };
 VectorCloud vector_cloud(const std::vector<Bin>& bins);
 
-// Bins as points (unit centroid direction, solid angle, power) for direct
-// kernel sums, structure-of-arrays.
-struct PointCloud {
-    std::vector<float> x, y, z, omega, p[3];
-    size_t size() const { return x.size(); }
-};
-PointCloud point_cloud(const std::vector<Bin>& bins);
-
 // Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5):
 // every texel's exact basis integral (texel-constant radiance), in double.
 std::array<Sh9, 3> project_sh9(const Image& img);

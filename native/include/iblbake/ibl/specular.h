@@ -3,6 +3,7 @@
 #pragma once
 #include <vector>
 
+#include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/source.h"
 
@@ -39,14 +40,20 @@ void specular_mirror(Cubemap& dst, const Image& latlong);
 void specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector<RadiancePoint>& hot,
                         double roughness, const SpecularQuality& q);
 
-// Level for roughness r > 0 by a direct kernel sum over a point cloud of the
-// rest (ibl/source.h) for lobes that span several bins:
-//   Pre(n) = (sum_p P_p K(n.d_p) + sum_hot P_h K(n.d_h)) / sum_p Omega_p K(n.d_p).
-// Self-normalised like the definition, so a constant world gives exactly 1.
-void specular_direct(Cubemap& dst, const PointCloud& rest, const std::vector<RadiancePoint>& hot, double roughness);
+struct HierarchicalQuality {
+    double eps = 0.25;  // a bin is used whole when its radius <= eps * the kernel's length scale there
+    int tile = 8;       // output texels share one traversal per tile x tile block
+};
 
-// Bins across (lat-long, power of two) a direct sum needs for roughness r:
-// about six per half-width of the lobe (1.3 alpha radians in w), at least 64.
-int direct_bins_for(double roughness);
+// Level for roughness r > 0 by a hierarchical (Barnes-Hut) kernel sum over a
+// bin pyramid: for each tile of output texels, bins are taken whole where
+// they are small against the kernel's local length scale, max(2 alpha, the
+// bin's least distance to the tile), else split down to the finest level:
+//   Pre(n) = sum_b P_b K(n.p_b) / sum_b Omega_b K(n.c_b),
+// p_b the bin's power centroid, c_b its solid-angle centroid. The result is
+// a deterministic quadrature of SPEC.md's integral whose error is set by eps
+// alone (second order in eps), with no sampling noise and no clamping.
+// Returns the mean number of bins per texel.
+double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {});
 
 }  // namespace iblbake
