@@ -20,7 +20,8 @@ int main(int argc, char** argv) {
     std::string source, outdir, model = "karis", encoding = "srgb", method = "hierarchical";
     std::vector<std::string> formats = {"exr"};
     int samples = 0;
-    bool no_irr = false, no_spec = false, no_lut = false, quiet = false;
+    bool no_irr = false, no_spec = false, no_lut = false, quiet = false, no_cache = false;
+    std::string cache_dir = FileLutCache::default_dir().string();
 
     CLI::App* bake = app.add_subcommand("bake", "bake SOURCE into the files of SPEC.md in OUTDIR");
     bake->add_option("source", source, "lat-long source image (EXR, HDR, PNG, JPEG)")->required();
@@ -60,6 +61,8 @@ int main(int argc, char** argv) {
                      "texels brighter than this times the mean are integrated exactly")
         ->capture_default_str();
     bake->add_option("--max-hot", bo.max_hot, "at most this many exactly integrated texels")->capture_default_str();
+    bake->add_option("--cache-dir", cache_dir, "where BRDF LUTs are cached for reuse")->capture_default_str();
+    bake->add_flag("--no-cache", no_cache, "neither read nor write the LUT cache");
     bake->add_flag("-q,--quiet", quiet, "print nothing on success");
 
     try {
@@ -96,7 +99,8 @@ int main(int argc, char** argv) {
         else if (encoding == "rgbm") wo.png_encoding = PngEncoding::Rgbm;
         else throw std::invalid_argument("unknown PNG encoding '" + encoding + "' (expected srgb or rgbm)");
 
-        const nlohmann::json m = bake_file(source, outdir, bo, wo);
+        FileLutCache cache(cache_dir);
+        const nlohmann::json m = bake_file(source, outdir, bo, wo, {}, no_cache ? nullptr : &cache);
         if (!quiet) {
             double total = 0.0;
             for (const auto& [k, v] : m["timings"].items()) total += v.get<double>();

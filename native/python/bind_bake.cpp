@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <string>
 
 #include "bindings.h"
@@ -30,7 +31,7 @@ T get_as(const pybind11::handle& v, const std::string& key, const char* type_nam
 
 // Keyword options -> BakeOptions / WriteOptions. Unknown keys are an error.
 void parse_options(const pybind11::dict& kw, BakeOptions& bo, WriteOptions& wo, pybind11::object& progress,
-                   std::string& source_path) {
+                   std::string& source_path, std::string& lut_cache_dir) {
     for (auto item : kw) {
         const std::string key = pybind11::str(item.first);
         const pybind11::handle v = item.second;
@@ -84,6 +85,7 @@ void parse_options(const pybind11::dict& kw, BakeOptions& bo, WriteOptions& wo, 
             if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
             progress = pybind11::reinterpret_borrow<pybind11::object>(v);
         } else if (key == "source_path") source_path = v.is_none() ? std::string() : as_str();
+        else if (key == "lut_cache_dir") lut_cache_dir = v.is_none() ? std::string() : as_str();
         else value_error("unknown option '" + key + "'");
     }
     bo.validate();
@@ -168,8 +170,10 @@ void bind_bake(pybind11::module_& m) {
             BakeOptions bo;
             WriteOptions wo;
             pybind11::object progress = pybind11::none();
-            std::string source_path;
-            parse_options(kw, bo, wo, progress, source_path);
+            std::string source_path, cache_dir;
+            parse_options(kw, bo, wo, progress, source_path, cache_dir);
+            std::optional<FileLutCache> cache;
+            if (!cache_dir.empty()) cache.emplace(cache_dir);
             Image img = image_from_array(image);
             std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
             if (!out.empty() && !wo.exr && !wo.png) value_error("formats must name at least one of 'exr', 'png'");
@@ -183,7 +187,7 @@ void bind_bake(pybind11::module_& m) {
             {
                 pybind11::gil_scoped_release release;
                 src.sha256 = io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
-                r = compute_bake(std::move(img), bo, pf);
+                r = compute_bake(std::move(img), bo, pf, cache ? &*cache : nullptr);
                 manifest = out.empty() ? make_manifest(r, bo, wo, src, nlohmann::json::object())
                                        : write_bake(r, out, bo, wo, src);
             }
@@ -201,7 +205,8 @@ mip_count, lut_size, lut_model, irradiance, specular, lut, specular_method ('hie
 eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
 specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
 hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
-rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path.
+rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path,
+lut_cache_dir (a folder where BRDF LUTs are reused across bakes; none by default).
 Raises ValueError on a wrong dtype, shape or option, or on bad pixels with strict=True.)doc");
 
     m.def(
@@ -210,13 +215,15 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
             BakeOptions bo;
             WriteOptions wo;
             pybind11::object progress = pybind11::none();
-            std::string ignored;
-            parse_options(kw, bo, wo, progress, ignored);
+            std::string ignored, cache_dir;
+            parse_options(kw, bo, wo, progress, ignored, cache_dir);
+            std::optional<FileLutCache> cache;
+            if (!cache_dir.empty()) cache.emplace(cache_dir);
             const ProgressFn pf = wrap_progress(progress);
             nlohmann::json manifest;
             {
                 pybind11::gil_scoped_release release;
-                manifest = bake_file(source, out_dir, bo, wo, pf);
+                manifest = bake_file(source, out_dir, bo, wo, pf, cache ? &*cache : nullptr);
             }
             return json_to_py(manifest);
         },

@@ -8,7 +8,9 @@
 #include <limits>
 
 #include "iblbake/bake/bake_file.h"
+#include "iblbake/bake/lut_cache.h"
 #include "iblbake/io/image_io.h"
+#include "iblbake/math/color.h"
 #include "reference.h"
 
 using namespace iblbake;
@@ -182,4 +184,47 @@ TEST(Cli, ExitCodes) {
               0);
     EXPECT_TRUE(fs::exists(dir / "o" / "manifest.json"));
     EXPECT_TRUE(fs::exists(dir / "o" / "specular_0.png"));
+}
+
+TEST(LutCache, SecondBakeReadsTheFirstOnesLut) {
+    const fs::path dir = temp_dir("lutcache");
+    FileLutCache cache(dir / "cache");
+    BakeOptions o = small_options();
+    o.specular = false;
+    o.irradiance = false;
+    const BakeResult a = compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache);
+    EXPECT_FALSE(a.lut_from_cache);
+    const BakeResult b = compute_bake(ref::constant_source(8, 4, 2.0f), o, {}, &cache);
+    EXPECT_TRUE(b.lut_from_cache);
+    EXPECT_EQ(a.lut->pixels, b.lut->pixels);  // exact: full-float round trip
+    // Another model or quality is another entry.
+    o.lut_model = LutModel::HeightCorrelated;
+    EXPECT_FALSE(compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache).lut_from_cache);
+    // A damaged entry is a miss and gets replaced.
+    const fs::path entry = dir / "cache" / (lut_cache_key(o.lut_size, o.lut_model, o.lut_quality) + ".exr");
+    ASSERT_TRUE(fs::exists(entry));
+    { std::ofstream f(entry, std::ios::trunc); f << "junk"; }
+    const BakeResult c = compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache);
+    EXPECT_FALSE(c.lut_from_cache);
+    EXPECT_TRUE(compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache).lut_from_cache);
+}
+
+TEST(Io, ReadsHdrPngAndGreyImages) {
+    const fs::path dir = temp_dir("formats");
+    Image img = ref::random_smooth_source(16, 8, 3);
+    // Radiance .hdr keeps floats (RGBE: about 1 % precision).
+    io::write_exr((dir / "a.exr").string(), img, {}, io::ExrPixel::Float);
+    const std::string hdr = (dir / "a.hdr").string();
+    ASSERT_EQ(std::system(("oiiotool " + (dir / "a.exr").string() + " -o " + hdr + " >/dev/null 2>&1").c_str()), 0);
+    const io::LoadedImage h = io::read_image(hdr);
+    EXPECT_FALSE(h.linearised);
+    EXPECT_NEAR(h.image.at(3, 4)[1] / img.at(3, 4)[1], 1.0, 0.02);
+    // A one-channel 8-bit PNG: grey expanded to RGB, linearised from sRGB.
+    std::vector<float> grey(16 * 8, 0.5f);
+    io::write_png8((dir / "g.png").string(), 16, 8, 1, grey);
+    const io::LoadedImage g = io::read_image((dir / "g.png").string());
+    EXPECT_TRUE(g.linearised);
+    EXPECT_EQ(g.source_channels, 1);
+    EXPECT_NEAR(g.image.at(5, 5)[0], srgb_to_linear(128.0f / 255.0f), 1e-4);
+    EXPECT_EQ(g.image.at(5, 5)[0], g.image.at(5, 5)[2]);
 }

@@ -153,6 +153,14 @@ def test_brdf_lut_function_matches_bake():
     assert abs(a - 0.7285345) < 2e-4 and abs(b - 0.0185464) < 2e-4
 
 
+def test_lut_cache_dir_reuses_the_lut(tmp_path):
+    a = ib.bake(latlong(), lut_cache_dir=str(tmp_path), specular=False, irradiance=False, lut_size=8)
+    b = ib.bake(latlong(), lut_cache_dir=str(tmp_path), specular=False, irradiance=False, lut_size=8)
+    assert not a["manifest"]["brdf_lut"]["from_cache"] and b["manifest"]["brdf_lut"]["from_cache"]
+    np.testing.assert_array_equal(a["brdf_lut"], b["brdf_lut"])
+    assert len(list(tmp_path.iterdir())) == 1
+
+
 def test_orientation_helpers_follow_the_contract():
     # Blender +X, +Z, -Y -> engine faces +X (0), +Y (2), +Z (4).
     for blender, face in [((1, 0, 0), 0), ((0, 0, 1), 2), ((0, -1, 0), 4)]:

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "iblbake/bake/lut_cache.h"
 #include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/irradiance.h"
@@ -100,7 +101,7 @@ Image compute_lut(int size, LutModel model, const LutQuality& q, int threads) {
     return in_arena(threads, [&] { return bake_brdf_lut(size, model, q); });
 }
 
-BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress) {
+BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress, LutCache* lut_cache) {
     o.validate();
     if (source.width < 1 || source.height < 1) throw std::invalid_argument("source image is empty");
     return in_arena(o.threads, [&] {
@@ -218,7 +219,14 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
 
         if (o.lut) {
             report("brdf_lut", done);
-            r.lut = bake_brdf_lut(o.lut_size, o.lut_model, o.lut_quality);
+            const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
+            if (lut_cache) r.lut = lut_cache->load(key);
+            if (r.lut && (r.lut->width != o.lut_size || r.lut->height != o.lut_size)) r.lut.reset();
+            r.lut_from_cache = bool(r.lut);
+            if (!r.lut) {
+                r.lut = bake_brdf_lut(o.lut_size, o.lut_model, o.lut_quality);
+                if (lut_cache) lut_cache->store(key, *r.lut);
+            }
             clock.done("brdf_lut");
             advance(w_lut);
         } else {

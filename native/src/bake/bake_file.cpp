@@ -6,7 +6,7 @@
 namespace iblbake {
 
 nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakeOptions& bo,
-                         const WriteOptions& wo, const ProgressFn& progress) {
+                         const WriteOptions& wo, const ProgressFn& progress, LutCache* lut_cache) {
     bo.validate();
     io::LoadedImage loaded = io::read_image(source_path);
     SourceInfo src;
@@ -15,7 +15,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     src.height = loaded.image.height;
     src.sha256 = io::sha256_file(source_path);
     src.linearised = loaded.linearised;
-    const BakeResult r = compute_bake(std::move(loaded.image), bo, progress);
+    const BakeResult r = compute_bake(std::move(loaded.image), bo, progress, lut_cache);
     return write_bake(r, outdir, bo, wo, src);
 }
 

@@ -80,6 +80,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
         m["brdf_lut"] = {{"file", wo.exr ? "brdf_lut.exr" : "brdf_lut.png"},
                          {"size", r.lut->width},
                          {"model", lut_model_name(bo.lut_model)},
+                         {"from_cache", r.lut_from_cache},
                          {"channels", {{"r", "A (scale of F0)"}, {"g", "B (bias)"}, {"b", "0"}}},
                          {"axes", {{"x", "NdotV = (i + 0.5) / N"}, {"y", "roughness = (j + 0.5) / N, j from the top"}}}};
     } else {

@@ -72,6 +72,7 @@ struct BakeResult {
     int specular_base_face = 0;  // FIS: rest cube face; hierarchical: finest bins across
     std::vector<size_t> samples_per_texel;  // per specular level (bins per texel, hierarchical)
     std::vector<std::string> specular_methods;
+    bool lut_from_cache = false;
 };
 
 struct Cancelled : std::runtime_error {
@@ -85,9 +86,13 @@ struct BadInputError : std::runtime_error {
 // (the bake then throws Cancelled and nothing is written).
 using ProgressFn = std::function<bool(const std::string& stage, double fraction)>;
 
+class LutCache;
+
 // The whole bake in memory. `source` is a Blender lat-long image; it is
-// cleaned in place (SPEC.md section 1).
-BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {});
+// cleaned in place (SPEC.md section 1). With a `lut_cache`, the LUT is read
+// from it when present and stored into it when made.
+BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {},
+                        LutCache* lut_cache = nullptr);
 
 // Just the LUT (it depends on nothing but its own settings).
 Image compute_lut(int size, LutModel model, const LutQuality& q = {}, int threads = 0);

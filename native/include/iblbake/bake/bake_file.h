@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "iblbake/bake/bake.h"
+#include "iblbake/bake/lut_cache.h"
 #include "iblbake/bake/write.h"
 
 namespace iblbake {
@@ -14,6 +15,6 @@ namespace iblbake {
 // Any failure (unreadable source, bad options, strict bad input, write error,
 // cancel) throws before the output folder is touched.
 nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakeOptions& bo,
-                         const WriteOptions& wo, const ProgressFn& progress = {});
+                         const WriteOptions& wo, const ProgressFn& progress = {}, LutCache* lut_cache = nullptr);
 
 }  // namespace iblbake
