@@ -29,9 +29,26 @@ T get_as(const pybind11::handle& v, const std::string& key, const char* type_nam
     }
 }
 
-// Keyword options -> BakeOptions / WriteOptions. Unknown keys are an error.
-void parse_options(const pybind11::dict& kw, BakeOptions& bo, WriteOptions& wo, pybind11::object& progress,
-                   std::string& source_path, std::string& lut_cache_dir) {
+// Everything the keyword options say.
+struct Parsed {
+    BakeOptions bo;
+    WriteOptions wo;
+    ProgressFn progress;
+    std::string source_path;
+    std::optional<FileLutCache> cache;
+    LutCache* lut_cache() { return cache ? &*cache : nullptr; }
+};
+
+ProgressFn wrap_progress(const pybind11::object& cb);
+
+// Keyword options -> BakeOptions / WriteOptions / progress / LUT cache.
+// Unknown keys are an error. Runs with the GIL held.
+Parsed parse_options(const pybind11::dict& kw) {
+    Parsed out;
+    BakeOptions& bo = out.bo;
+    WriteOptions& wo = out.wo;
+    pybind11::object progress = pybind11::none();
+    std::string lut_cache_dir;
     for (auto item : kw) {
         const std::string key = pybind11::str(item.first);
         const pybind11::handle v = item.second;
@@ -84,11 +101,14 @@ void parse_options(const pybind11::dict& kw, BakeOptions& bo, WriteOptions& wo, 
         else if (key == "progress") {
             if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
             progress = pybind11::reinterpret_borrow<pybind11::object>(v);
-        } else if (key == "source_path") source_path = v.is_none() ? std::string() : as_str();
+        } else if (key == "source_path") out.source_path = v.is_none() ? std::string() : as_str();
         else if (key == "lut_cache_dir") lut_cache_dir = v.is_none() ? std::string() : as_str();
         else value_error("unknown option '" + key + "'");
     }
     bo.validate();
+    out.progress = wrap_progress(progress);
+    if (!lut_cache_dir.empty()) out.cache.emplace(lut_cache_dir);
+    return out;
 }
 
 // A progress callback that may be called from any thread with the GIL released.
@@ -167,19 +187,13 @@ void bind_bake(pybind11::module_& m) {
     m.def(
         "bake",
         [](const pybind11::handle& image, const pybind11::object& out_dir, const pybind11::kwargs& kw) {
-            BakeOptions bo;
-            WriteOptions wo;
-            pybind11::object progress = pybind11::none();
-            std::string source_path, cache_dir;
-            parse_options(kw, bo, wo, progress, source_path, cache_dir);
-            std::optional<FileLutCache> cache;
-            if (!cache_dir.empty()) cache.emplace(cache_dir);
+            Parsed p = parse_options(kw);
             Image img = image_from_array(image);
             std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
-            if (!out.empty() && !wo.exr && !wo.png) value_error("formats must name at least one of 'exr', 'png'");
-            const ProgressFn pf = wrap_progress(progress);
+            if (!out.empty() && !p.wo.exr && !p.wo.png)
+                value_error("formats must name at least one of 'exr', 'png'");
             SourceInfo src;
-            src.path = source_path;
+            src.path = p.source_path;
             src.width = img.width;
             src.height = img.height;
             BakeResult r;
@@ -187,9 +201,9 @@ void bind_bake(pybind11::module_& m) {
             {
                 pybind11::gil_scoped_release release;
                 src.sha256 = io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
-                r = compute_bake(std::move(img), bo, pf, cache ? &*cache : nullptr);
-                manifest = out.empty() ? make_manifest(r, bo, wo, src, nlohmann::json::object())
-                                       : write_bake(r, out, bo, wo, src);
+                r = compute_bake(std::move(img), p.bo, p.progress, p.lut_cache());
+                manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
+                                       : write_bake(r, out, p.bo, p.wo, src);
             }
             pybind11::dict d = result_dict(r);
             d["manifest"] = json_to_py(manifest);
@@ -212,18 +226,11 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
     m.def(
         "bake_file",
         [](const std::string& source, const std::string& out_dir, const pybind11::kwargs& kw) {
-            BakeOptions bo;
-            WriteOptions wo;
-            pybind11::object progress = pybind11::none();
-            std::string ignored, cache_dir;
-            parse_options(kw, bo, wo, progress, ignored, cache_dir);
-            std::optional<FileLutCache> cache;
-            if (!cache_dir.empty()) cache.emplace(cache_dir);
-            const ProgressFn pf = wrap_progress(progress);
+            Parsed p = parse_options(kw);
             nlohmann::json manifest;
             {
                 pybind11::gil_scoped_release release;
-                manifest = bake_file(source, out_dir, bo, wo, pf, cache ? &*cache : nullptr);
+                manifest = bake_file(source, out_dir, p.bo, p.wo, p.progress, p.lut_cache());
             }
             return json_to_py(manifest);
         },
