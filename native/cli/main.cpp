@@ -1,6 +1,9 @@
 // iblbake CLI: parses arguments and calls bake_file(). No integration here.
 #include <CLI/CLI.hpp>
 
+#include <atomic>
+#include <csignal>
+
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -8,6 +11,13 @@
 #include <vector>
 
 #include "iblbake/bake/bake_file.h"
+
+namespace {
+// SIGINT / SIGTERM ask the bake to stop at its next stage: it then throws
+// Cancelled, nothing is written and the staging folder is removed.
+std::atomic<bool> g_stop{false};
+extern "C" void request_stop(int) { g_stop = true; }
+}  // namespace
 
 int main(int argc, char** argv) {
     using namespace iblbake;
@@ -81,6 +91,7 @@ int main(int argc, char** argv) {
     try {
         bo.lut_model = lut_model_from_name(model);
         bo.specular_method = specular_method_from_name(method);
+        if (bake->count("--samples") && samples < 1) throw std::invalid_argument("--samples must be >= 1");
         if (samples > 0) {
             bo.specular_quality.rings = std::max(1, int(std::lround(std::sqrt(double(samples)) / 2.0)));
             bo.specular_quality.max_phi = std::max(bo.specular_quality.min_phi,
@@ -100,7 +111,10 @@ int main(int argc, char** argv) {
         else throw std::invalid_argument("unknown PNG encoding '" + encoding + "' (expected srgb or rgbm)");
 
         FileLutCache cache(cache_dir);
-        const nlohmann::json m = bake_file(source, outdir, bo, wo, {}, no_cache ? nullptr : &cache);
+        std::signal(SIGINT, request_stop);
+        std::signal(SIGTERM, request_stop);
+        const nlohmann::json m = bake_file(source, outdir, bo, wo, [](const std::string&, double) { return !g_stop; },
+                                           no_cache ? nullptr : &cache);
         if (!quiet) {
             double total = 0.0;
             for (const auto& [k, v] : m["timings"].items()) total += v.get<double>();
@@ -109,6 +123,9 @@ int main(int argc, char** argv) {
                         (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
         }
         return 0;
+    } catch (const Cancelled& e) {
+        std::cerr << "iblbake: error: " << e.what() << " (interrupted); nothing was written\n";
+        return 130;
     } catch (const std::exception& e) {
         std::cerr << "iblbake: error: " << e.what() << "\n";
         return 1;

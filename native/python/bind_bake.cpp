@@ -11,6 +11,7 @@
 #include "bindings.h"
 #include "iblbake/bake/bake_file.h"
 #include "iblbake/io/hash.h"
+#include "iblbake/io/output_dir.h"
 
 namespace py = pybind11;
 
@@ -169,8 +170,7 @@ Image image_from_array(const pybind11::handle& obj) {
     if (!arr.dtype().is(pybind11::dtype::of<float>()))
         value_error("image must be float32, got " + std::string(pybind11::str(arr.dtype())));
     if (arr.ndim() != 3 || (arr.shape(2) != 3 && arr.shape(2) != 4))
-        value_error("image must have shape (H, W, 3) or (H, W, 4), got " +
-                    std::string(pybind11::str(pybind11::make_tuple(arr.attr("shape")))));
+        value_error("image must have shape (H, W, 3) or (H, W, 4), got " + std::string(pybind11::str(arr.attr("shape"))));
     if (arr.shape(0) < 1 || arr.shape(1) < 1) value_error("image must be at least 1 x 1");
     const auto c = pybind11::array_t<float, pybind11::array::c_style | pybind11::array::forcecast>::ensure(arr);
     const int h = int(c.shape(0)), w = int(c.shape(1)), ch = int(c.shape(2));
@@ -189,9 +189,12 @@ void bind_bake(pybind11::module_& m) {
         [](const pybind11::handle& image, const pybind11::object& out_dir, const pybind11::kwargs& kw) {
             Parsed p = parse_options(kw);
             Image img = image_from_array(image);
-            std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
-            if (!out.empty() && !p.wo.exr && !p.wo.png)
-                value_error("formats must name at least one of 'exr', 'png'");
+            const std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
+            if (!out_dir.is_none()) {
+                if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
+                p.wo.validate();
+                io::check_replaceable(out, p.source_path);
+            }
             SourceInfo src;
             src.path = p.source_path;
             src.width = img.width;

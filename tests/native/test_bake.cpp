@@ -34,7 +34,7 @@ BakeOptions small_options() {
 
 fs::path write_source(const fs::path& dir, const Image& img) {
     const fs::path p = dir / "source.exr";
-    io::write_exr(p.string(), img, {}, io::ExrPixel::Float);
+    io::write_exr(p.string(), img, io::ExrPixel::Float);
     return p;
 }
 
@@ -213,7 +213,7 @@ TEST(Io, ReadsHdrPngAndGreyImages) {
     const fs::path dir = temp_dir("formats");
     Image img = ref::random_smooth_source(16, 8, 3);
     // Radiance .hdr keeps floats (RGBE: about 1 % precision).
-    io::write_exr((dir / "a.exr").string(), img, {}, io::ExrPixel::Float);
+    io::write_exr((dir / "a.exr").string(), img, io::ExrPixel::Float);
     const std::string hdr = (dir / "a.hdr").string();
     ASSERT_EQ(std::system(("oiiotool " + (dir / "a.exr").string() + " -o " + hdr + " >/dev/null 2>&1").c_str()), 0);
     const io::LoadedImage h = io::read_image(hdr);
@@ -227,4 +227,77 @@ TEST(Io, ReadsHdrPngAndGreyImages) {
     EXPECT_EQ(g.source_channels, 1);
     EXPECT_NEAR(g.image.at(5, 5)[0], srgb_to_linear(128.0f / 255.0f), 1e-4);
     EXPECT_EQ(g.image.at(5, 5)[0], g.image.at(5, 5)[2]);
+}
+
+TEST(Bake, RefusesToReplaceWhatIsNotABake) {
+    const fs::path dir = temp_dir("refuse");
+    const fs::path src = write_source(dir, ref::constant_source(16, 8, 1.0f));
+    fs::create_directories(dir / "precious");
+    { std::ofstream f(dir / "precious" / "notes.txt"); f << "keep me"; }
+    EXPECT_THROW(bake_file(src.string(), dir / "precious", small_options(), {}), std::runtime_error);
+    EXPECT_TRUE(fs::exists(dir / "precious" / "notes.txt"));
+    // The folder holding the source, the current folder, an empty path: refused.
+    EXPECT_THROW(bake_file(src.string(), dir, small_options(), {}), std::runtime_error);
+    EXPECT_THROW(bake_file(src.string(), fs::current_path(), small_options(), {}), std::runtime_error);
+    EXPECT_THROW(bake_file(src.string(), "", small_options(), {}), std::runtime_error);
+    // An empty folder and an earlier bake are fine.
+    fs::create_directories(dir / "empty");
+    EXPECT_NO_THROW(bake_file(src.string(), dir / "empty", small_options(), {}));
+    EXPECT_NO_THROW(bake_file(src.string(), dir / "empty", small_options(), {}));
+}
+
+TEST(Bake, StaleStagingFromKilledBakesIsRemoved) {
+    const fs::path dir = temp_dir("stale");
+    const fs::path src = write_source(dir, ref::constant_source(16, 8, 1.0f));
+    // A staging folder whose process is gone (pid 999999999 does not exist).
+    fs::create_directories(dir / ".out.iblbake-999999999-deadbeef");
+    bake_file(src.string(), dir / "out", small_options(), {});
+    EXPECT_FALSE(fs::exists(dir / ".out.iblbake-999999999-deadbeef"));
+}
+
+TEST(Bake, HugeFiniteValuesNeverOverflow) {
+    for (float v : {1e35f, 3.0e38f}) {
+        Image img = ref::constant_source(64, 32, 1.0f);
+        img.at(10, 10)[0] = v;  // one enormous texel
+        Image all = ref::constant_source(32, 16, v);
+        for (const Image* src : {&img, &all}) {
+            const BakeResult r = compute_bake(*src, small_options());
+            for (const auto& lvl : r.specular)
+                for (float x : lvl.pixels) ASSERT_TRUE(std::isfinite(x)) << v;
+            for (float x : r.irradiance->pixels) ASSERT_TRUE(std::isfinite(x)) << v;
+        }
+        const BakeResult r = compute_bake(all, small_options());
+        EXPECT_NEAR(r.irradiance->pixels[0] / v, 1.0, 1e-3);
+        EXPECT_NEAR(r.specular[2].pixels[0] / v, 1.0, 1e-3);
+    }
+}
+
+TEST(Bake, FilesAreByteIdenticalAcrossThreadCounts) {
+    const fs::path dir = temp_dir("bytes");
+    const fs::path src = write_source(dir, ref::sun_source(128, 64, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f));
+    WriteOptions wo;
+    wo.png = true;
+    BakeOptions o = small_options();
+    o.threads = 1;
+    bake_file(src.string(), dir / "one", o, wo);
+    o.threads = 2;
+    bake_file(src.string(), dir / "two", o, wo);
+    for (const auto& e : fs::directory_iterator(dir / "one")) {
+        if (e.path().filename() == "manifest.json") continue;  // holds timings
+        std::ifstream a(e.path(), std::ios::binary), b(dir / "two" / e.path().filename(), std::ios::binary);
+        const std::string da((std::istreambuf_iterator<char>(a)), {}), db((std::istreambuf_iterator<char>(b)), {});
+        EXPECT_EQ(da, db) << e.path().filename();
+    }
+}
+
+TEST(Bake, WriteOptionsAreValidated) {
+    WriteOptions wo;
+    wo.exposure = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_THROW(wo.validate(), std::invalid_argument);
+    wo = {};
+    wo.rgbm_range = 0.0f;
+    EXPECT_THROW(wo.validate(), std::invalid_argument);
+    wo = {};
+    wo.exr = false;
+    EXPECT_THROW(wo.validate(), std::invalid_argument);
 }

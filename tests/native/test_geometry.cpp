@@ -87,10 +87,14 @@ TEST(Cube, CrossLayout) {
     for (int f = 0; f < 6; ++f)
         for (int j = 0; j < 2; ++j)
             for (int i = 0; i < 2; ++i) c.at(f, i, j)[0] = float(f + 1);
-    std::vector<float> alpha;
-    const Image x = cube_to_hcross(c, &alpha);
-    ASSERT_EQ(x.width, 8);
-    ASSERT_EQ(x.height, 6);
+    const std::vector<float> rgba = cube_to_hcross_rgba(c);
+    ASSERT_EQ(rgba.size(), size_t(8 * 6 * 4));
+    Image x(8, 6);
+    std::vector<float> alpha(8 * 6);
+    for (size_t p = 0; p < alpha.size(); ++p) {
+        for (int k = 0; k < 3; ++k) x.pixels[p * 3 + k] = rgba[p * 4 + k];
+        alpha[p] = rgba[p * 4 + 3];
+    }
     // Row 0: . +Y . . ; row 1: -X +Z +X -Z ; row 2: . -Y . .
     const int expect[3][4] = {{0, 3, 0, 0}, {2, 5, 1, 6}, {0, 4, 0, 0}};
     for (int r = 0; r < 3; ++r)

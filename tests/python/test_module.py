@@ -111,6 +111,19 @@ def test_writes_files_atomically_and_returns_manifest(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["bake"]
 
 
+def test_refuses_an_unrelated_folder_and_empty_path(tmp_path):
+    precious = tmp_path / "precious"
+    precious.mkdir()
+    (precious / "notes.txt").write_text("keep")
+    with pytest.raises(RuntimeError, match="refusing"):
+        ib.bake(latlong(), str(precious), **SMALL)
+    assert (precious / "notes.txt").read_text() == "keep"
+    with pytest.raises(ValueError, match="non-empty"):
+        ib.bake(latlong(), "", **SMALL)
+    with pytest.raises(ValueError, match="exposure"):
+        ib.bake(latlong(), str(tmp_path / "x"), exposure=float("nan"), **SMALL)
+
+
 def test_progress_and_cancel(tmp_path):
     seen = []
     ib.bake(latlong(), progress=lambda stage, f: seen.append((stage, f)) or True, **SMALL)

@@ -26,6 +26,15 @@ int pow2_ceil(double x) {
     return p;
 }
 
+// 0 when the largest value is below 2^64, else the exponent e such that
+// dividing by 2^e brings it there.
+int overflow_guard_exponent(const Image& img) {
+    float m = 0.0f;
+    for (float v : img.pixels) m = std::max(m, v);
+    const int e = std::ilogb(std::max(m, 1.0f));
+    return e >= 64 ? e - 60 : 0;
+}
+
 void check(bool ok, const std::string& what) {
     if (!ok) throw std::invalid_argument(what);
 }
@@ -64,10 +73,11 @@ SpecularMethod specular_method_from_name(const std::string& name) {
 }
 
 void BakeOptions::validate() const {
-    check(face_size >= 1 && face_size <= 8192, "face_size must be in 1..8192");
-    check(irradiance_size >= 1 && irradiance_size <= 8192, "irradiance_size must be in 1..8192");
+    // 4096: a cube of 6 x 4096^2 RGB floats is 1.2 GB; its cross and files about as much again.
+    check(face_size >= 1 && face_size <= 4096, "face_size must be in 1..4096");
+    check(irradiance_size >= 1 && irradiance_size <= 4096, "irradiance_size must be in 1..4096");
     check(mip_count >= 0 && mip_count <= 20, "mip_count must be in 0..20 (0 = full chain)");
-    check(lut_size >= 1 && lut_size <= 8192, "lut_size must be in 1..8192");
+    check(lut_size >= 1 && lut_size <= 4096, "lut_size must be in 1..4096");
     check(specular_quality.rings >= 1 && specular_quality.rings <= 256, "specular rings must be in 1..256");
     check(specular_quality.min_phi >= 1 && specular_quality.max_phi >= specular_quality.min_phi &&
               specular_quality.max_phi <= 4096,
@@ -81,13 +91,13 @@ void BakeOptions::validate() const {
           "specular_base_face must be 0 (automatic) or a power of two up to 4096");
     check(irradiance_bins >= 2 && irradiance_bins <= 4096 && (irradiance_bins & (irradiance_bins - 1)) == 0,
           "irradiance_bins must be a power of two in 2..4096");
-    check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.01 && hierarchical.eps <= 2.0,
-          "specular eps must be in 0.01..2");
+    check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.02 && hierarchical.eps <= 1.0,
+          "specular eps must be in 0.02..1 (error grows as eps^2; 0.25 gives about 0.3 %)");
     check(hierarchical.tile >= 1 && hierarchical.tile <= 256, "specular tile must be in 1..256");
     check(irradiance_exact_face >= 1 && irradiance_exact_face <= 4096, "irradiance_exact_face must be in 1..4096");
     check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
     check(max_hot >= 0 && max_hot <= 1 << 20, "max_hot must be in 0..1048576");
-    check(threads >= 0 && threads <= 1024, "threads must be >= 0");
+    check(threads >= 0 && threads <= 1024, "threads must be in 0..1024 (0: all cores)");
 }
 
 int BakeOptions::resolved_mip_count() const { return mip_count > 0 ? mip_count : floor_log2(face_size) + 1; }
@@ -123,6 +133,12 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
             throw BadInputError("source has " + std::to_string(r.bad_input.pixels) + " bad pixels (" +
                                 std::to_string(r.bad_input.nan) + " NaN, " + std::to_string(r.bad_input.inf) +
                                 " Inf, " + std::to_string(r.bad_input.negative) + " negative values)");
+        // Radiance far beyond what any real HDRI holds (finite floats up to
+        // 3.4e38) would overflow the float sums: bring the maximum below 2^64
+        // by an exact power of two and scale the outputs back at the end.
+        const int scale_exp = overflow_guard_exponent(source);
+        if (scale_exp != 0)
+            for (float& v : source.pixels) v = std::ldexp(v, -scale_exp);
         r.mean_radiance = mean_radiance(source);
         clock.done("sanitize");
         r.sh9 = project_sh9(source);
@@ -231,6 +247,17 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
             advance(w_lut);
         } else {
             skip("brdf_lut");
+        }
+        if (scale_exp != 0) {
+            auto rescale = [&](std::vector<float>& px) {
+                for (float& v : px) v = std::ldexp(v, scale_exp);
+            };
+            if (r.irradiance) rescale(r.irradiance->pixels);
+            for (Cubemap& c : r.specular) rescale(c.pixels);
+            for (auto& ch : r.sh9)
+                for (double& v : ch) v = std::ldexp(v, scale_exp);
+            for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
+            r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
         }
         report("done", 1.0);
         return r;

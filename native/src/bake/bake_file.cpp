@@ -2,12 +2,15 @@
 
 #include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
+#include "iblbake/io/output_dir.h"
 
 namespace iblbake {
 
 nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakeOptions& bo,
                          const WriteOptions& wo, const ProgressFn& progress, LutCache* lut_cache) {
     bo.validate();
+    wo.validate();
+    io::check_replaceable(outdir, source_path);  // before any work: nothing to lose later
     io::LoadedImage loaded = io::read_image(source_path);
     SourceInfo src;
     src.path = source_path;

@@ -34,7 +34,7 @@ void FileLutCache::store(const std::string& key, const Image& lut) {
     const fs::path final_path = dir_ / (key + ".exr");
     const fs::path tmp = dir_ / (key + ".tmp-" + std::to_string(::getpid()) + ".exr");
     try {
-        io::write_exr(tmp.string(), lut, {}, io::ExrPixel::Float);
+        io::write_exr(tmp.string(), lut, io::ExrPixel::Float);
         fs::rename(tmp, final_path, ec);
     } catch (const std::exception&) {
     }

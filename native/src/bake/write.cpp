@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 
 #include "iblbake/image/encode.h"
@@ -22,18 +23,18 @@ const char* png_encoding_name(PngEncoding e) { return e == PngEncoding::Srgb ? "
 // Writes one cube as a cross (EXR and/or PNG) and records encodings.
 void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cube, const WriteOptions& wo,
                  json& encodings) {
-    std::vector<float> alpha;
-    const Image cross = cube_to_hcross(cube, &alpha);
+    const std::vector<float> rgba = cube_to_hcross_rgba(cube);
+    const int w = 4 * cube.size, h = 3 * cube.size;
     if (wo.exr) {
-        const bool full = wo.float32 || max_value(cross) > kHalfMax;
-        io::write_exr((dir / (stem + ".exr")).string(), cross, alpha, full ? io::ExrPixel::Float : io::ExrPixel::Half);
+        const bool full = wo.float32 || exceeds_half(rgba);
+        io::write_exr((dir / (stem + ".exr")).string(), w, h, 4, rgba, full ? io::ExrPixel::Float : io::ExrPixel::Half);
         encodings[stem + ".exr"] = full ? "float" : "half";
     }
     if (wo.png) {
         const std::vector<float> v = wo.png_encoding == PngEncoding::Srgb
-                                         ? encode_srgb(cross, alpha, wo.exposure)
-                                         : encode_rgbm(cross, alpha, wo.exposure, wo.rgbm_range);
-        io::write_png8((dir / (stem + ".png")).string(), cross.width, cross.height, 4, v);
+                                         ? encode_srgb(rgba, wo.exposure)
+                                         : encode_rgbm(rgba, wo.exposure, wo.rgbm_range);
+        io::write_png8((dir / (stem + ".png")).string(), w, h, 4, v);
         encodings[stem + ".png"] = png_encoding_name(wo.png_encoding);
     }
 }
@@ -43,6 +44,14 @@ std::string primary_file(const std::string& stem, const WriteOptions& wo) {
 }
 
 }  // namespace
+
+void WriteOptions::validate() const {
+    if (!exr && !png) throw std::invalid_argument("no output format: ask for exr, png or both");
+    if (!std::isfinite(exposure) || std::fabs(exposure) > 64.0f)
+        throw std::invalid_argument("exposure must be a finite number of stops in -64..64");
+    if (!std::isfinite(rgbm_range) || !(rgbm_range > 0.0f) || rgbm_range > 1e6f)
+        throw std::invalid_argument("rgbm_range must be > 0 and finite");
+}
 
 json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOptions& wo, const SourceInfo& src,
                    const json& encodings, double write_seconds) {
@@ -132,7 +141,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
 
 json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
                 const SourceInfo& src) {
-    if (!wo.exr && !wo.png) throw std::invalid_argument("no output format: ask for exr, png or both");
+    wo.validate();
     const auto start = std::chrono::steady_clock::now();
     io::StagingDir staging(outdir);
     const fs::path dir = staging.path();
@@ -143,7 +152,7 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
     if (r.lut) {
         const Image& lut = *r.lut;
         if (wo.exr) {
-            io::write_exr((dir / "brdf_lut.exr").string(), lut, {}, io::ExrPixel::Float);
+            io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
             encodings["brdf_lut.exr"] = "float";
         }
         if (wo.png) {

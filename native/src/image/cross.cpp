@@ -5,24 +5,20 @@
 
 namespace iblbake {
 
-Image cube_to_hcross(const Cubemap& cube, std::vector<float>* alpha) {
-    const int n = cube.size;
-    Image cross(4 * n, 3 * n);
-    if (alpha) alpha->assign(size_t(cross.width) * cross.height, 0.0f);
+std::vector<float> cube_to_hcross_rgba(const Cubemap& cube) {
+    const size_t n = size_t(cube.size), w = 4 * n;
+    std::vector<float> out(w * 3 * n * 4, 0.0f);
     for (int face = 0; face < 6; ++face) {
         const CrossCell cell = kHCrossCells[face];
-        for (int j = 0; j < n; ++j) {
-            const int y = cell.row * n + j;
-            for (int i = 0; i < n; ++i) {
-                const int x = cell.col * n + i;
-                const float* s = cube.at(face, i, j);
-                float* d = cross.at(x, y);
-                d[0] = s[0]; d[1] = s[1]; d[2] = s[2];
-                if (alpha) (*alpha)[size_t(y) * cross.width + x] = 1.0f;
+        for (size_t j = 0; j < n; ++j) {
+            float* d = &out[((cell.row * n + j) * w + cell.col * n) * 4];
+            const float* s = cube.at(face, 0, int(j));
+            for (size_t i = 0; i < n; ++i, d += 4, s += 3) {
+                d[0] = s[0]; d[1] = s[1]; d[2] = s[2]; d[3] = 1.0f;
             }
         }
     }
-    return cross;
+    return out;
 }
 
 Cubemap hcross_to_cube(const Image& cross) {

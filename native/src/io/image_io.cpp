@@ -66,18 +66,14 @@ void write_generic(const std::string& path, const OIIO::ImageSpec& spec, const s
 }
 }  // namespace
 
-void write_exr(const std::string& path, const Image& img, const std::vector<float>& alpha, ExrPixel pixel) {
-    const int nch = alpha.empty() ? 3 : 4;
-    OIIO::ImageSpec spec(img.width, img.height, nch,
+void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
+               ExrPixel pixel) {
+    OIIO::ImageSpec spec(width, height, channels,
                          pixel == ExrPixel::Half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
-    if (nch == 4) spec.alpha_channel = 3;
+    if (channels == 4) spec.alpha_channel = 3;
     spec.attribute("compression", "zip");
     spec.attribute("oiio:ColorSpace", "linear");
-    std::vector<float> values(size_t(img.width) * img.height * nch);
-    for (size_t p = 0; p < size_t(img.width) * img.height; ++p) {
-        for (int k = 0; k < 3; ++k) values[p * nch + k] = img.pixels[p * 3 + k];
-        if (nch == 4) values[p * nch + 3] = alpha[p];
-    }
+    spec.attribute("DateTime", "");  // no time stamp: equal pixels, equal files
     write_generic(path, spec, values);
 }
 

@@ -17,6 +17,7 @@ struct WriteOptions {
     PngEncoding png_encoding = PngEncoding::Srgb;
     float exposure = 0.0f;       // stops, PNG only
     float rgbm_range = 8.0f;
+    void validate() const;  // throws std::invalid_argument
 };
 
 struct SourceInfo {

@@ -6,15 +6,16 @@
 
 namespace iblbake {
 
-// sRGB 8-bit, clamped, after scaling by 2^exposure. Output is RGBA in [0, 1],
-// alpha from `alpha` (1 where it is empty).
-std::vector<float> encode_srgb(const Image& img, const std::vector<float>& alpha, float exposure);
+// All functions take and return interleaved RGBA buffers (cross_to_hcross_rgba).
+
+// sRGB 8-bit, clamped, after scaling by 2^exposure; alpha kept.
+std::vector<float> encode_srgb(const std::vector<float>& rgba, float exposure);
 
 // RGBM: linear * 2^exposure = rgb * m * range, m quantised up to 1/255 so
-// rgb <= 1. Output RGBA in [0, 1]; unused cross cells (alpha 0) are 0.
-std::vector<float> encode_rgbm(const Image& img, const std::vector<float>& alpha, float exposure, float range);
+// rgb <= 1. Unused cross cells (alpha 0) stay 0.
+std::vector<float> encode_rgbm(const std::vector<float>& rgba, float exposure, float range);
 
-// Largest finite value (for the half-float overflow check).
-float max_value(const Image& img);
+// Whether any colour value is beyond half float's range (65504) or not finite.
+bool exceeds_half(const std::vector<float>& rgba);
 
 }  // namespace iblbake

@@ -31,9 +31,10 @@ struct Cubemap {
     }
 };
 
-// Lay a cube out as SPEC.md's horizontal cross (4N x 3N, unused cells black).
-// `alpha`, when not null, receives 1 on faces and 0 on unused cells.
-Image cube_to_hcross(const Cubemap& cube, std::vector<float>* alpha = nullptr);
+// Lay a cube out as SPEC.md's horizontal cross (4N x 3N, unused cells black),
+// as one interleaved RGBA buffer (alpha 1 on faces, 0 on unused cells): what
+// the writers take, built without intermediate copies.
+std::vector<float> cube_to_hcross_rgba(const Cubemap& cube);
 // The inverse, for readers and tests.
 Cubemap hcross_to_cube(const Image& cross);
 

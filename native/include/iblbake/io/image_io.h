@@ -22,8 +22,13 @@ struct LoadedImage {
 LoadedImage read_image(const std::string& path);
 
 enum class ExrPixel { Half, Float };
-// RGB(A) EXR, zip-compressed. `alpha` may be empty.
-void write_exr(const std::string& path, const Image& img, const std::vector<float>& alpha, ExrPixel pixel);
+// Zip-compressed EXR from an interleaved buffer of 3 (RGB) or 4 (RGBA)
+// channels. No time stamp, so equal pixels give equal files.
+void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
+               ExrPixel pixel);
+inline void write_exr(const std::string& path, const Image& img, ExrPixel pixel) {
+    write_exr(path, img.width, img.height, 3, img.pixels, pixel);
+}
 // 8-bit RGBA PNG from already-encoded values in [0, 1].
 void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
 // 16-bit PNG from values in [0, 1].

@@ -7,8 +7,17 @@
 
 namespace iblbake::io {
 
+// Throws std::runtime_error unless `destination` may be replaced by a bake:
+// it does not exist, is an empty folder, or holds an earlier bake (a
+// manifest.json written by iblbake); and it is neither the current folder
+// (or one above it) nor a folder that holds `keep` (the source image).
+void check_replaceable(const std::filesystem::path& destination, const std::filesystem::path& keep = {});
+
 class StagingDir {
 public:
+    // Checks the destination (check_replaceable), removes staging folders
+    // that killed bakes left beside it (their process is gone), and makes a
+    // new one named after this process.
     explicit StagingDir(const std::filesystem::path& destination);
     ~StagingDir();  // removes the staging folder unless committed
     StagingDir(const StagingDir&) = delete;
