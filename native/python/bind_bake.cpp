@@ -203,7 +203,11 @@ void bind_bake(pybind11::module_& m) {
             nlohmann::json manifest;
             {
                 pybind11::gil_scoped_release release;
-                src.sha256 = io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
+                // Same hash as the CLI when the pixels came from a file.
+                std::error_code ec;
+                src.sha256 = !src.path.empty() && std::filesystem::is_regular_file(src.path, ec)
+                                 ? io::sha256_file(src.path)
+                                 : io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
                 r = compute_bake(std::move(img), p.bo, p.progress, p.lut_cache());
                 manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
                                        : write_bake(r, out, p.bo, p.wo, src);
@@ -259,6 +263,8 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
     m.def(
         "integrate_brdf",
         [](double ndotv, double roughness, const std::string& model, int phi_points, int u_points) {
+            if (phi_points < 1 || u_points < 1 || phi_points > 256 || u_points > 256)
+                value_error("quadrature orders must be in 1..256");
             const LutValue v = integrate_brdf(ndotv, roughness, lut_model_from_name(model), {phi_points, u_points});
             return pybind11::make_tuple(v.a, v.b);
         },

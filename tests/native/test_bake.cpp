@@ -301,3 +301,17 @@ TEST(Bake, WriteOptionsAreValidated) {
     wo.exr = false;
     EXPECT_THROW(wo.validate(), std::invalid_argument);
 }
+
+TEST(Io, DataWindowIsPlacedInTheDisplayWindow) {
+    const fs::path dir = temp_dir("window");
+    io::write_exr((dir / "full.exr").string(), ref::constant_source(64, 32, 1.0f), io::ExrPixel::Float);
+    const std::string crop = (dir / "crop.exr").string();
+    ASSERT_EQ(std::system(("oiiotool " + (dir / "full.exr").string() + " --crop 64x16+0+0 -o " + crop +
+                           " >/dev/null 2>&1").c_str()),
+              0);
+    const io::LoadedImage li = io::read_image(crop);
+    EXPECT_EQ(li.image.width, 64);
+    EXPECT_EQ(li.image.height, 32);
+    EXPECT_EQ(li.image.at(5, 3)[0], 1.0f);   // top half: data
+    EXPECT_EQ(li.image.at(5, 20)[0], 0.0f);  // bottom half: outside the data window
+}

@@ -87,3 +87,11 @@ TEST(BrdfLut, ModelsRelate) {
     EXPECT_EQ(m.b, h.b);
     EXPECT_THROW(lut_model_from_name("charlie"), std::invalid_argument);
 }
+
+TEST(BrdfLut, RoughnessZeroIsTheMirrorLimitAndBadInputsThrow) {
+    const LutValue v = integrate_brdf(0.5, 0.0, LutModel::Karis);
+    EXPECT_NEAR(v.a, 1 - std::pow(0.5, 5), 1e-12);
+    EXPECT_NEAR(v.b, std::pow(0.5, 5), 1e-12);
+    EXPECT_THROW(integrate_brdf(std::nan(""), 0.5, LutModel::Karis), std::invalid_argument);
+    EXPECT_THROW(integrate_brdf(0.5, 1.5, LutModel::Karis), std::invalid_argument);
+}

@@ -28,6 +28,15 @@ int pow2_ceil(double x) {
 
 // 0 when the largest value is below 2^64, else the exponent e such that
 // dividing by 2^e brings it there.
+// Finest specular bins: small enough for the narrowest lobe (radius <= eps *
+// 2 alpha_1, about 2.2 / (eps alpha_1) bins across), a power of two.
+int finest_bin_width(const BakeOptions& o) {
+    const int mips = o.resolved_mip_count();
+    if (!o.specular || mips < 2 || o.specular_method != SpecularMethod::Hierarchical) return 2;
+    const double r1 = o.mip_roughness(1), a1 = r1 * r1;
+    return std::clamp(pow2_ceil(2.2 / (o.hierarchical.eps * a1)), 2, 8192);
+}
+
 int overflow_guard_exponent(const Image& img) {
     float m = 0.0f;
     for (float v : img.pixels) m = std::max(m, v);
@@ -141,19 +150,35 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
             for (float& v : source.pixels) v = std::ldexp(v, -scale_exp);
         r.mean_radiance = mean_radiance(source);
         clock.done("sanitize");
-        r.sh9 = project_sh9(source);
+        r.sh9 = project_sh9(source);  // (re-projected below if the source is resampled)
         clock.done("sh9");
+
+        // The integrators work on texel-constant radiance; SPEC integrates the
+        // bilinear L. The two agree to second order in the texel size, so a
+        // source coarser than the integration needs (under 512 across, or
+        // than the finest specular bins) is resampled from L onto a finer
+        // grid first. Mip 0 always reads the original through L itself.
+        const int finest_bins = finest_bin_width(o);
+        const int integration_w = std::max(512, finest_bins);
+        Image resampled;
+        if (source.width < integration_w || source.height < integration_w / 2)
+            resampled = resample_latlong(source, std::max(source.width, integration_w),
+                                         std::max(source.height, integration_w / 2));
+        const Image& integrand = resampled.width > 0 ? resampled : source;
+        r.integration_width = integrand.width;
+        r.integration_height = integrand.height;
 
         const bool need_split =
             o.irradiance || (o.specular && mips > 1 && o.specular_method == SpecularMethod::Fis);
         HotSplit split;
         if (need_split) {
-            split = split_hot(source, o.hot_threshold, o.max_hot);
+            split = split_hot(integrand, o.hot_threshold, o.max_hot);
             r.hot_texels = split.hot.size();
             r.hot_threshold = split.threshold;
             r.hot_power_fraction = split.hot_power_fraction;
             clock.done("hot_split");
         }
+        if (resampled.width > 0) r.sh9 = project_sh9(resampled);
         advance(0.05);
 
         auto skip = [&](const char* what) {
@@ -190,17 +215,12 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
                 r.specular_base_face = base;
                 Cubemap cube(base);
                 const int ss = std::clamp(int(std::ceil(source.width / (kPi * base))), 1, 4);
-                latlong_to_cube(cube, split.rest, ss);
+                latlong_to_cube(cube, split.rest, ss);  // split.rest is already at integration resolution
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
             } else if (mips > 1) {
-                // Finest bins: small enough for the narrowest lobe (radius
-                // <= eps * 2 alpha_1), never finer than the source.
-                const double r1 = o.mip_roughness(1), a1 = r1 * r1;
-                const int need = pow2_ceil(2.2 / (o.hierarchical.eps * a1));
-                const int finest = std::clamp(std::min(need, pow2_ceil(source.width)), 2, 8192);
-                r.specular_base_face = finest;
-                tree = build_bin_tree(source, finest);
+                r.specular_base_face = finest_bins;
+                tree = build_bin_tree(integrand, finest_bins);
                 clock.done("bin_tree");
             }
             for (int m = 0; m < mips; ++m) {

@@ -70,7 +70,10 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
         m["irradiance"] = {{"file", primary_file("irradiance", wo)},
                            {"face_size", r.irradiance->size},
                            {"divided_by_pi", true},
-                           {"method", "exact cosine convolution (vector-power cloud + hot texels)"}};
+                           {"method", r.irradiance->size > bo.irradiance_exact_face
+                                          ? "exact cosine convolution at face " + std::to_string(bo.irradiance_exact_face) +
+                                                ", resampled bilinearly"
+                                          : std::string("exact cosine convolution (vector-power cloud + hot texels)")}};
     } else {
         m["irradiance"] = nullptr;
     }
@@ -109,13 +112,18 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     if (wo.png) {
         m["png"] = {{"encoding", png_encoding_name(wo.png_encoding)}, {"exposure_stops", wo.exposure}};
         if (wo.png_encoding == PngEncoding::Rgbm)
-            m["png"]["rgbm"] = {{"range", wo.rgbm_range}, {"decode", "linear = rgb * a * range * 2^-exposure"}};
+            m["png"]["rgbm"] = {{"range", wo.rgbm_range},
+                                {"decode", "linear = rgb * a * range * 2^-exposure"},
+                                {"alpha", "holds M on faces (not 1); 0 on unused cross cells"}};
     }
     json timings = json::object();
     for (const auto& [stage, s] : r.timings) timings[stage] = s;
     if (write_seconds >= 0.0) timings["write"] = write_seconds;
     m["timings"] = timings;
     m["mean_radiance"] = r.mean_radiance;
+    m["integration_grid"] = {{"width", r.integration_width},
+                             {"height", r.integration_height},
+                             {"note", "sources coarser than this are resampled from the bilinear L (SPEC 1) onto it"}};
     m["hot_texels"] = {{"count", r.hot_texels},
                        {"threshold", r.hot_threshold},
                        {"power_fraction", r.hot_power_fraction}};

@@ -47,7 +47,14 @@ std::vector<double> azimuth_breaks(double ndotv) {
 }  // namespace
 
 LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const LutQuality& q) {
+    if (!(ndotv >= 0.0 && ndotv <= 1.0) || !(roughness >= 0.0 && roughness <= 1.0))
+        throw std::invalid_argument("integrate_brdf: NdotV and roughness must be in [0, 1]");
     const double alpha = roughness * roughness;
+    if (alpha < 1e-9) {
+        // The mirror limit: D is a delta at h = n, so l = reflect(v), G = 1.
+        const double m = 1.0 - std::max(ndotv, 1e-7), fc = m * m * m * m * m;
+        return {model == LutModel::Multiscatter ? 1.0 - fc : 1.0 - fc, fc};
+    }
     const double cos_v = std::clamp(ndotv, 1e-7, 1.0);
     const double sin_v = std::sqrt(std::max(0.0, 1.0 - cos_v * cos_v));
     const double k = alpha / 2.0;
@@ -111,6 +118,7 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
                         a_sum += w * (1.0 - fc) * integrand;
                         b_sum += w * fc * integrand;
                     }
+                    if (!(panel_hi > panel_lo)) break;
                     panel_lo = panel_hi;
                     panel_hi = std::min(theta_max, 4.0 * panel_hi);
                 }

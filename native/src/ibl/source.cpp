@@ -88,6 +88,15 @@ void latlong_bilinear(const Image& img, const Vec3d& engine_dir, float out[3]) {
     }
 }
 
+Image resample_latlong(const Image& img, int w, int h) {
+    Image out(w, h);
+    parallel_for(0, h, [&](int y) {
+        for (int x = 0; x < w; ++x)
+            latlong_bilinear(img, blender_to_engine(latlong_texel_direction(x, y, w, h)), out.at(x, y));
+    });
+    return out;
+}
+
 HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);

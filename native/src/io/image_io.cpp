@@ -26,11 +26,29 @@ LoadedImage read_image(const std::string& path) {
     auto in = OIIO::ImageInput::open(path);
     if (!in) fail(path, OIIO::geterror());
     const OIIO::ImageSpec spec = in->spec();
-    const int w = spec.width, h = spec.height, nch = spec.nchannels;
-    if (w < 1 || h < 1 || nch < 1) fail(path, "image has no pixels");
-    std::vector<float> raw(size_t(w) * h * nch);
-    if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, raw.data())) fail(path, in->geterror());
+    const int dw = spec.width, dh = spec.height, nch = spec.nchannels;
+    if (dw < 1 || dh < 1 || nch < 1 || spec.depth > 1) fail(path, "image has no pixels");
+    std::vector<float> data(size_t(dw) * dh * nch);
+    if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, data.data())) fail(path, in->geterror());
     in->close();
+    // The lat-long spans the display window; pixels outside the data window are 0.
+    const int w = spec.full_width > 0 ? spec.full_width : dw, h = spec.full_height > 0 ? spec.full_height : dh;
+    const int ox = spec.x - spec.full_x, oy = spec.y - spec.full_y;
+    std::vector<float> raw;
+    if (w == dw && h == dh && ox == 0 && oy == 0) {
+        raw = std::move(data);
+    } else {
+        raw.assign(size_t(w) * h * nch, 0.0f);
+        for (int y = 0; y < dh; ++y) {
+            const int ty = y + oy;
+            if (ty < 0 || ty >= h) continue;
+            for (int x = 0; x < dw; ++x) {
+                const int tx = x + ox;
+                if (tx < 0 || tx >= w) continue;
+                std::copy_n(&data[(size_t(y) * dw + x) * nch], nch, &raw[(size_t(ty) * w + tx) * nch]);
+            }
+        }
+    }
 
     LoadedImage out;
     out.source_channels = nch;

@@ -114,7 +114,12 @@ void StagingDir::commit() {
             const fs::path old = destination_.parent_path() /
                                  ("." + destination_.filename().string() + ".old-" + random_suffix());
             fs::rename(destination_, old);
-            fs::rename(staging_, destination_);
+            fs::rename(staging_, destination_, ec);
+            if (ec) {  // put the earlier bake back
+                std::error_code ec2;
+                fs::rename(old, destination_, ec2);
+                throw std::runtime_error("cannot move the bake into '" + destination_.string() + "': " + ec.message());
+            }
             fs::remove_all(old, ec);
         }
     } else {

@@ -44,7 +44,7 @@ struct BakeOptions {
     LutQuality lut_quality;
     int specular_base_face = 0;       // FIS: rest cube face; 0: automatic
     int irradiance_bins = 128;        // lat-long bins across (half as many down), a power of two
-    int irradiance_exact_face = 64;   // larger irradiance faces are resampled from this
+    int irradiance_exact_face = 128;  // larger irradiance faces are resampled from this
     double hot_threshold = 16.0;      // hot texels: above this times the mean ...
     int max_hot = 1024;               // ... and at most this many
     bool strict = false;              // bad texels are an error instead of 0
@@ -73,6 +73,7 @@ struct BakeResult {
     std::vector<size_t> samples_per_texel;  // per specular level (bins per texel, hierarchical)
     std::vector<std::string> specular_methods;
     bool lut_from_cache = false;
+    int integration_width = 0, integration_height = 0;  // the grid the integrals ran on
 };
 
 struct Cancelled : std::runtime_error {

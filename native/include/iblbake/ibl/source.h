@@ -25,6 +25,12 @@ BadInputCounts sanitize(Image& img);
 // for an engine-space direction.
 void latlong_bilinear(const Image& img, const Vec3d& engine_dir, float out[3]);
 
+// SPEC's L(w) (bilinear) sampled at the texel centres of a w x h lat-long
+// grid: integrals of the result with texel-constant radiance approach those
+// of the bilinear L as the grid gets finer. Used to bring small sources up
+// to the resolution the integrators need.
+Image resample_latlong(const Image& img, int w, int h);
+
 // A source texel (or a block of them) as a point: engine direction and power
 // (radiance times solid angle) per channel.
 struct RadiancePoint {
