@@ -258,7 +258,7 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
             return image_array(lut);
         },
         pybind11::arg("size") = 512, pybind11::arg("model") = "karis", pybind11::arg("phi_points") = 4,
-        pybind11::arg("u_points") = 8, pybind11::arg("threads") = 0, "The BRDF LUT alone, (size, size, 3).");
+        pybind11::arg("u_points") = 6, pybind11::arg("threads") = 0, "The BRDF LUT alone, (size, size, 3).");
 
     m.def(
         "integrate_brdf",
@@ -269,7 +269,7 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
             return pybind11::make_tuple(v.a, v.b);
         },
         pybind11::arg("ndotv"), pybind11::arg("roughness"), pybind11::arg("model") = "karis",
-        pybind11::arg("phi_points") = 4, pybind11::arg("u_points") = 8, "(A, B) at one point.");
+        pybind11::arg("phi_points") = 4, pybind11::arg("u_points") = 6, "(A, B) at one point.");
 }
 
 }  // namespace iblbake::py

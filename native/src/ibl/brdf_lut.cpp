@@ -61,6 +61,10 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
     const bool hc = model != LutModel::Karis;
     const double g1v = ggx::g1_schlick(cos_v, k);
     const double lambda_v = ggx::smith_lambda(cos_v, alpha);
+    // Width in n.l over which G falls to 0 at the n.l = 0 limit: k for
+    // Schlick-GGX, about alpha / (2 (1 + Lambda(v))) for height-correlated Smith.
+    const double x_layer = hc ? alpha / (2.0 * (1.0 + lambda_v)) : k;
+    std::vector<double> breaks;
 
     const QuadratureRule phi_unit = gauss_legendre(q.phi_points, 0.0, 1.0);
     const QuadratureRule u_unit = gauss_legendre(q.u_points, 0.0, 1.0);
@@ -89,8 +93,21 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
                 const double theta0 = std::min(alpha, theta_max);
                 const double c0 = std::cos(theta0), s0 = std::sin(theta0);
                 const double t0 = std::sqrt(ggx::invert_sample(alpha, c0 * c0, s0 * s0));
-                double panel_lo = 0.0, panel_hi = theta0;
-                for (int panel = 0; panel_lo < theta_max; ++panel) {
+                // Panel ends: 0, theta_0, 4 theta_0, 16 theta_0, ... up to theta_max,
+                // merged with ends graded toward theta_max: there G switches off
+                // across a layer about x_layer wide in n.l (n.l ~ 2 R
+                // (theta_max - theta)), thin at grazing angles for
+                // height-correlated Smith, where Lambda(v) is large.
+                const double R = std::sqrt(cos_v * cos_v + sin_v * sin_v * cphi * cphi);
+                const double layer = x_layer / (2.0 * std::max(R, 1e-12));
+                breaks.assign({0.0});
+                for (double b = theta0; b < theta_max; b *= 4.0) breaks.push_back(b);
+                for (double d = layer; d < 0.25 * (theta_max - theta0); d *= 4.0) breaks.push_back(theta_max - d);
+                breaks.push_back(theta_max);
+                std::sort(breaks.begin(), breaks.end());
+                for (size_t panel = 0; panel + 1 < breaks.size(); ++panel) {
+                    const double panel_lo = breaks[panel], panel_hi = breaks[panel + 1];
+                    if (!(panel_hi > panel_lo)) continue;
                     for (size_t iu = 0; iu < u_unit.nodes.size(); ++iu) {
                         double cos2, sin2, w;
                         if (panel == 0) {
@@ -118,9 +135,6 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
                         a_sum += w * (1.0 - fc) * integrand;
                         b_sum += w * fc * integrand;
                     }
-                    if (!(panel_hi > panel_lo)) break;
-                    panel_lo = panel_hi;
-                    panel_hi = std::min(theta_max, 4.0 * panel_hi);
                 }
             }
         }

@@ -11,7 +11,7 @@
 namespace iblbake {
 
 // Bumped whenever the LUT quadrature changes, so stale entries are never read.
-constexpr int kLutAlgorithmVersion = 1;
+constexpr int kLutAlgorithmVersion = 2;
 
 // The cache key: every setting that changes a texel.
 std::string lut_cache_key(int size, LutModel model, const LutQuality& q);

@@ -12,7 +12,7 @@ LutModel lut_model_from_name(const std::string& name);  // throws std::invalid_a
 
 struct LutQuality {
     int phi_points = 4;   // Gauss-Legendre nodes per azimuth panel
-    int u_points = 8;     // Gauss-Legendre nodes per theta_h panel
+    int u_points = 6;     // Gauss-Legendre nodes per theta_h panel
 };
 
 struct LutValue { double a, b; };
@@ -23,9 +23,11 @@ struct LutValue { double a, b; };
 // changes sign at theta_h = psi/2 + pi/4 with psi = atan2(sin_v cos(phi),
 // cos_v): the theta_h integral stops exactly there, so the integrand has no
 // kink. In theta_h: a head panel [0, min(alpha, theta_max)] in t = sqrt(u),
-// then panels growing 4x in theta_h (D's poles sit at +-i alpha). Azimuth
-// panels are graded toward phi = pi/2, where the limit swings from pi/2 to 0
-// over a width of about NdotV at grazing angles.
+// then panels growing 4x in theta_h (D's poles sit at +-i alpha), merged with
+// panels graded toward theta_max down to the width of the layer where G falls
+// to 0 (thin at grazing angles, for height-correlated Smith above all).
+// Azimuth panels are graded toward phi = pi/2, where the limit swings from
+// pi/2 to 0 over a width of about NdotV at grazing angles.
 //   karis:              Schlick-GGX G, k = alpha / 2 (the seed shader, UE4)
 //   height-correlated:  Smith G2 = 1 / (1 + Lambda(v) + Lambda(l))
 //   multiscatter:       height-correlated, with Turquin 2019's energy
