@@ -57,16 +57,4 @@ void irradiance_convolve(Cubemap& dst, const VectorCloud& cloud, int exact_face_
     });
 }
 
-void irradiance_from_sh9(Cubemap& dst, const std::array<Sh9, 3>& sh) {
-    const int n = dst.size;
-    parallel_for(0, 6 * n, [&](int row) {
-        const int f = row / n, j = row % n;
-        for (int i = 0; i < n; ++i) {
-            const Vec3d d = texel_direction(f, i, j, n);
-            float* o = dst.at(f, i, j);
-            for (int c = 0; c < 3; ++c) o[c] = float(sh9_irradiance(sh[c], d));
-        }
-    });
-}
-
 }  // namespace iblbake

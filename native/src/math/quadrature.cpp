@@ -24,7 +24,6 @@ QuadratureRule gauss_legendre(int n, double a, double b) {
                 p0 = p1;
                 p1 = p2;
             }
-            if (n == 1) { p1 = x; p0 = 1.0; }
             dp = n * (x * p1 - p0) / (x * x - 1.0);
             const double dx = p1 / dp;
             x -= dx;

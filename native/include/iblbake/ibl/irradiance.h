@@ -13,8 +13,4 @@ namespace iblbake {
 // bilinearly (Irr is smooth: its curvature is that of a clamped cosine).
 void irradiance_convolve(Cubemap& dst, const VectorCloud& cloud, int exact_face_limit = 64);
 
-// Irr approximated from the 9 SH coefficients of the radiance (SPEC.md 5),
-// for comparison and for engines that want SH only.
-void irradiance_from_sh9(Cubemap& dst, const std::array<Sh9, 3>& sh);
-
 }  // namespace iblbake
