@@ -29,12 +29,14 @@ int pow2_ceil(double x) {
 // 0 when the largest value is below 2^64, else the exponent e such that
 // dividing by 2^e brings it there.
 // Finest specular bins: small enough for the narrowest lobe (radius <= eps *
-// 2 alpha_1, about 2.2 / (eps alpha_1) bins across), a power of two.
+// 2 alpha_1, about 2.2 / (eps alpha_1) bins across), a power of two, at most
+// 4096 across (the reduction holds 128 bytes a bin while it sums: 1 GB there);
+// chains whose first roughness is below about 0.05 use coarser bins than eps asks.
 int finest_bin_width(const BakeOptions& o) {
     const int mips = o.resolved_mip_count();
     if (!o.specular || mips < 2 || o.specular_method != SpecularMethod::Hierarchical) return 2;
     const double r1 = o.mip_roughness(1), a1 = r1 * r1;
-    return std::clamp(pow2_ceil(2.2 / (o.hierarchical.eps * a1)), 2, 8192);
+    return std::clamp(pow2_ceil(2.2 / (o.hierarchical.eps * a1)), 2, 4096);
 }
 
 int overflow_guard_exponent(const Image& img) {
