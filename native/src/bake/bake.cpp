@@ -152,8 +152,6 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
             for (float& v : source.pixels) v = std::ldexp(v, -scale_exp);
         r.mean_radiance = mean_radiance(source);
         clock.done("sanitize");
-        r.sh9 = project_sh9(source);  // (re-projected below if the source is resampled)
-        clock.done("sh9");
 
         // The integrators work on texel-constant radiance; SPEC integrates the
         // bilinear L. The two agree to second order in the texel size, so a
@@ -169,6 +167,8 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
         const Image& integrand = resampled.width > 0 ? resampled : source;
         r.integration_width = integrand.width;
         r.integration_height = integrand.height;
+        r.sh9 = project_sh9(integrand);
+        clock.done("sh9");
 
         const bool need_split =
             o.irradiance || (o.specular && mips > 1 && o.specular_method == SpecularMethod::Fis);
@@ -180,7 +180,6 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
             r.hot_power_fraction = split.hot_power_fraction;
             clock.done("hot_split");
         }
-        if (resampled.width > 0) r.sh9 = project_sh9(resampled);
         advance(0.05);
 
         auto skip = [&](const char* what) {
@@ -213,11 +212,11 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
                 const double r1 = o.mip_roughness(1), a1 = r1 * r1;
                 int base = o.specular_base_face;
                 if (base == 0)
-                    base = std::clamp(pow2_ceil(4.0 / a1), 8, std::clamp(pow2_ceil(source.width / 4.0), 8, 2048));
+                    base = std::clamp(pow2_ceil(4.0 / a1), 8, std::clamp(pow2_ceil(integrand.width / 4.0), 8, 2048));
                 r.specular_base_face = base;
                 Cubemap cube(base);
-                const int ss = std::clamp(int(std::ceil(source.width / (kPi * base))), 1, 4);
-                latlong_to_cube(cube, split.rest, ss);  // split.rest is already at integration resolution
+                const int ss = std::clamp(int(std::ceil(integrand.width / (kPi * base))), 1, 4);
+                latlong_to_cube(cube, split.rest, ss);  // split.rest is on the integration grid
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
             } else if (mips > 1) {
@@ -239,9 +238,8 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
                     r.specular_methods.push_back("hierarchical kernel sum over exact bins (eps " +
                                                  std::to_string(o.hierarchical.eps).substr(0, 4) + ")");
                 } else {
-                    specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality);
-                    r.samples_per_texel.push_back(
-                        make_kernel_samples(rough, o.specular_quality, pyramid.base_size()).size() + split.hot.size());
+                    const size_t samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality);
+                    r.samples_per_texel.push_back(samples + split.hot.size());
                     r.specular_methods.push_back("filtered importance sampling + hot texels");
                 }
                 r.specular.push_back(std::move(level));

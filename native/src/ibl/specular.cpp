@@ -75,7 +75,7 @@ void hot_term(const std::vector<RadiancePoint>& hot, const Vec3& n, float alpha,
 
 }  // namespace
 
-void specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector<RadiancePoint>& hot,
+size_t specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector<RadiancePoint>& hot,
                         double roughness, const SpecularQuality& q) {
     const std::vector<KernelSample> samples = make_kernel_samples(roughness, q, rest.base_size());
     const double alpha = roughness * roughness;
@@ -103,6 +103,7 @@ void specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector
             for (int k = 0; k < 3; ++k) o[k] = acc[k] + h[k];
         }
     });
+    return samples.size();
 }
 
 double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q) {

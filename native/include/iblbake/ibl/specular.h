@@ -37,7 +37,8 @@ void specular_mirror(Cubemap& dst, const Image& latlong);
 
 // Level for roughness r > 0: filtered importance sampling of `rest` plus the
 // exact kernel sum over the hot points divided by the analytic normaliser.
-void specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector<RadiancePoint>& hot,
+// Returns the number of samples per texel.
+size_t specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vector<RadiancePoint>& hot,
                         double roughness, const SpecularQuality& q);
 
 struct HierarchicalQuality {
