@@ -53,7 +53,7 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
     if (alpha < 1e-9) {
         // The mirror limit: D is a delta at h = n, so l = reflect(v), G = 1.
         const double m = 1.0 - std::max(ndotv, 1e-7), fc = m * m * m * m * m;
-        return {model == LutModel::Multiscatter ? 1.0 - fc : 1.0 - fc, fc};
+        return {1.0 - fc, fc};  // multiscatter's A' = 1 - B is the same here
     }
     const double cos_v = std::clamp(ndotv, 1e-7, 1.0);
     const double sin_v = std::sqrt(std::max(0.0, 1.0 - cos_v * cos_v));

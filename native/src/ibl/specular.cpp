@@ -59,15 +59,12 @@ namespace {
 
 // Exact kernel sum of the hot points for one direction, divided by Z(alpha).
 void hot_term(const std::vector<RadiancePoint>& hot, const Vec3& n, float alpha, float inv_z, float out[3]) {
-    const float a2 = alpha * alpha;
+    const float a2 = alpha * alpha, norm = 4.0f * a2 / float(kPi);
     float acc[3] = {0, 0, 0};
     for (const RadiancePoint& p : hot) {
         const float dx = n.x - p.dir[0], dy = n.y - p.dir[1], dz = n.z - p.dir[2];
         const float omc = 0.5f * (dx * dx + dy * dy + dz * dz);  // 1 - n.w without cancellation
-        const float c = 1.0f - omc;
-        if (c <= 0.0f) continue;
-        const float t = omc + a2 * (1.0f + c);
-        const float k = 4.0f * a2 / (float(kPi) * t * t) * c;
+        const float k = norm * ggx::prefilter_kernel_shape(a2, omc);
         for (int ch = 0; ch < 3; ++ch) acc[ch] += k * p.power[ch];
     }
     for (int ch = 0; ch < 3; ++ch) out[ch] = acc[ch] * inv_z;
@@ -123,10 +120,7 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
     std::vector<double> used(tiles, 0.0);
     auto kernel = [a2](float nx, float ny, float nz, float x, float y, float z) {
         const float dx = nx - x, dy = ny - y, dz = nz - z;
-        const float omc = 0.5f * (dx * dx + dy * dy + dz * dz);  // 1 - n.w
-        const float c = 1.0f - omc;
-        const float t = omc + a2 * (1.0f + c);
-        return c > 0.0f ? c / (t * t) : 0.0f;  // K up to 4 a^2 / pi, which cancels
+        return ggx::prefilter_kernel_shape(a2, 0.5f * (dx * dx + dy * dy + dz * dz));  // 4 a^2 / pi cancels
     };
     parallel_for(0, tiles, [&](int tile) {
         const int face = tile / (tiles_per_row * tiles_per_row);

@@ -50,6 +50,15 @@ inline double prefilter_kernel(double alpha, double one_minus_c) {
     return 4.0 * a2 / (kPi * t * t) * c;
 }
 
+// The same kernel in float up to its constant factor 4 a^2 / pi (which
+// cancels in self-normalised sums), for the hot loops: a2 = alpha^2,
+// one_minus_c = |n - w|^2 / 2.
+inline float prefilter_kernel_shape(float a2, float one_minus_c) {
+    const float c = 1.0f - one_minus_c;
+    const float t = one_minus_c + a2 * (1.0f + c);
+    return c > 0.0f ? c / (t * t) : 0.0f;
+}
+
 // Z(alpha) = integral over the sphere of the prefilter kernel,
 // = 4 * integral_0^{1/(1+a^2)} (1 - (a^2+1) u) / (1 + (a^2-1) u) du.
 // Closed form 4 [ -1/c + 2a^2/c^2 ln(2a^2/(1+a^2)) ], c = a^2 - 1; near
