@@ -8,7 +8,9 @@
 #include <optional>
 #include <string>
 
+#include "arrays.h"
 #include "bindings.h"
+#include "iblbake/bake/lut_cache.h"
 #include "iblbake/bake/bake_file.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/output_dir.h"
@@ -18,8 +20,6 @@ namespace py = pybind11;
 namespace iblbake::py {
 
 namespace {
-
-[[noreturn]] void value_error(const std::string& msg) { throw pybind11::value_error(msg); }
 
 template <typename T>
 T get_as(const pybind11::handle& v, const std::string& key, const char* type_name) {
@@ -61,6 +61,8 @@ Parsed parse_options(const pybind11::dict& kw) {
         else if (key == "irradiance_size") bo.irradiance_size = as_int();
         else if (key == "mip_count") bo.mip_count = as_int();
         else if (key == "lut_size") bo.lut_size = as_int();
+        else if (key == "first_level") bo.first_level = as_int();
+        else if (key == "last_level") bo.last_level = as_int();
         else if (key == "lut_model") bo.lut_model = lut_model_from_name(as_str());
         else if (key == "irradiance") bo.irradiance = as_bool();
         else if (key == "specular") bo.specular = as_bool();
@@ -103,7 +105,11 @@ Parsed parse_options(const pybind11::dict& kw) {
             if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
             progress = pybind11::reinterpret_borrow<pybind11::object>(v);
         } else if (key == "source_path") out.source_path = v.is_none() ? std::string() : as_str();
-        else if (key == "lut_cache_dir") lut_cache_dir = v.is_none() ? std::string() : as_str();
+        else if (key == "manifest_extra") {
+            if (!pybind11::isinstance<pybind11::dict>(v)) value_error("manifest_extra must be a dict");
+            const std::string text = pybind11::str(pybind11::module_::import("json").attr("dumps")(v));
+            wo.manifest_extra = nlohmann::json::parse(text);
+        } else if (key == "lut_cache_dir") lut_cache_dir = v.is_none() ? std::string() : as_str();
         else value_error("unknown option '" + key + "'");
     }
     bo.validate();
@@ -122,18 +128,6 @@ ProgressFn wrap_progress(const pybind11::object& cb) {
     };
 }
 
-pybind11::array_t<float> cube_array(const Cubemap& c) {
-    pybind11::array_t<float> a({6, c.size, c.size, 3});
-    std::memcpy(a.mutable_data(), c.pixels.data(), c.pixels.size() * sizeof(float));
-    return a;
-}
-
-pybind11::array_t<float> image_array(const Image& img) {
-    pybind11::array_t<float> a({img.height, img.width, 3});
-    std::memcpy(a.mutable_data(), img.pixels.data(), img.pixels.size() * sizeof(float));
-    return a;
-}
-
 pybind11::object json_to_py(const nlohmann::json& j) {
     return pybind11::module_::import("json").attr("loads")(j.dump());
 }
@@ -144,6 +138,7 @@ pybind11::dict result_dict(const BakeResult& r) {
     pybind11::list spec;
     for (const Cubemap& c : r.specular) spec.append(cube_array(c));
     d["specular"] = spec;
+    d["specular_levels"] = r.specular_levels;
     d["roughness"] = r.roughness;
     d["brdf_lut"] = r.lut ? pybind11::object(image_array(*r.lut)) : pybind11::none();
     pybind11::array_t<double> sh({3, 9});
@@ -163,24 +158,6 @@ pybind11::dict result_dict(const BakeResult& r) {
     return d;
 }
 
-// Checks dtype and shape; copies the RGB channels (alpha dropped).
-Image image_from_array(const pybind11::handle& obj) {
-    if (!pybind11::isinstance<pybind11::array>(obj)) value_error("image must be a numpy array");
-    const auto arr = pybind11::reinterpret_borrow<pybind11::array>(obj);
-    if (!arr.dtype().is(pybind11::dtype::of<float>()))
-        value_error("image must be float32, got " + std::string(pybind11::str(arr.dtype())));
-    if (arr.ndim() != 3 || (arr.shape(2) != 3 && arr.shape(2) != 4))
-        value_error("image must have shape (H, W, 3) or (H, W, 4), got " + std::string(pybind11::str(arr.attr("shape"))));
-    if (arr.shape(0) < 1 || arr.shape(1) < 1) value_error("image must be at least 1 x 1");
-    const auto c = pybind11::array_t<float, pybind11::array::c_style | pybind11::array::forcecast>::ensure(arr);
-    const int h = int(c.shape(0)), w = int(c.shape(1)), ch = int(c.shape(2));
-    Image img(w, h);
-    const float* src = c.data();
-    for (size_t p = 0; p < size_t(w) * h; ++p)
-        for (int k = 0; k < 3; ++k) img.pixels[p * 3 + k] = src[p * ch + k];
-    return img;
-}
-
 }  // namespace
 
 void bind_bake(pybind11::module_& m) {
@@ -188,7 +165,7 @@ void bind_bake(pybind11::module_& m) {
         "bake",
         [](const pybind11::handle& image, const pybind11::object& out_dir, const pybind11::kwargs& kw) {
             Parsed p = parse_options(kw);
-            Image img = image_from_array(image);
+            const PixelArray pixels(image);
             const std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
             if (!out_dir.is_none()) {
                 if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
@@ -197,12 +174,13 @@ void bind_bake(pybind11::module_& m) {
             }
             SourceInfo src;
             src.path = p.source_path;
-            src.width = img.width;
-            src.height = img.height;
+            src.width = pixels.width();
+            src.height = pixels.height();
             BakeResult r;
             nlohmann::json manifest;
             {
                 pybind11::gil_scoped_release release;
+                Image img = pixels.to_image();
                 // Same hash as the CLI when the pixels came from a file.
                 std::error_code ec;
                 src.sha256 = !src.path.empty() && std::filesystem::is_regular_file(src.path, ec)
@@ -221,14 +199,47 @@ void bind_bake(pybind11::module_& m) {
 
 With out_dir, writes SPEC.md's files there atomically. Always returns a dict with
 'irradiance' (6, N, N, 3), 'specular' (list of (6, n, n, 3)), 'roughness', 'brdf_lut' (N, N, 3),
-'sh9' (3, 9), 'bad_input', 'timings' and 'manifest'. Options (keywords): face_size, irradiance_size,
-mip_count, lut_size, lut_model, irradiance, specular, lut, specular_method ('hierarchical' or 'fis'),
+'specular_levels', 'sh9' (3, 9), 'bad_input', 'timings' and 'manifest'. Options (keywords): face_size,
+irradiance_size, mip_count, first_level, last_level (bake only those specular levels), lut_size, lut_model, irradiance, specular, lut, specular_method ('hierarchical' or 'fis'),
 eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
 specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
 hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
 rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path,
-lut_cache_dir (a folder where BRDF LUTs are reused across bakes; none by default).
+lut_cache_dir (a folder where BRDF LUTs are reused across bakes; none by default), manifest_extra (a dict of
+more top-level manifest keys).
 Raises ValueError on a wrong dtype, shape or option, or on bad pixels with strict=True.)doc");
+
+    m.def(
+        "bake_constant",
+        [](const std::array<float, 3>& rgb, const pybind11::object& out_dir, const pybind11::kwargs& kw) {
+            Parsed p = parse_options(kw);
+            const std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
+            if (!out_dir.is_none()) {
+                if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
+                p.wo.validate();
+                io::check_replaceable(out, p.source_path);
+            }
+            SourceInfo src;
+            src.path = p.source_path;
+            src.width = src.height = 1;
+            BakeResult r;
+            nlohmann::json manifest;
+            {
+                pybind11::gil_scoped_release release;
+                src.sha256 = io::sha256_bytes(rgb.data(), sizeof(rgb));
+                r = compute_constant_bake(rgb, p.bo, p.progress, p.lut_cache());
+                manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
+                                       : write_bake(r, out, p.bo, p.wo, src);
+            }
+            pybind11::dict d = result_dict(r);
+            d["manifest"] = json_to_py(manifest);
+            return d;
+        },
+        pybind11::arg("rgb"), pybind11::arg("out_dir") = pybind11::none(),
+        "Bake a constant world of radiance rgb in closed form (no integration); same options and result as bake().");
+
+    m.def("default_lut_cache_dir", [] { return FileLutCache::default_dir().string(); },
+          "The CLI's LUT cache folder: $IBLBAKE_CACHE_DIR, else $XDG_CACHE_HOME/iblbake, else ~/.cache/iblbake.");
 
     m.def(
         "bake_file",

@@ -2,9 +2,13 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <array>
+#include <cmath>
 #include <cstring>
 
+#include "arrays.h"
 #include "bindings.h"
+#include "iblbake/ibl/source.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/cube.h"
 
@@ -41,6 +45,24 @@ void bind_geometry(pybind11::module_& m) {
             return a;
         },
         "Read an image as the bake does: (H, W, 3) float32, linear.");
+    m.def(
+        "remap_latlong",
+        [](const pybind11::handle& image, const std::array<double, 9>& matrix, const std::array<double, 3>& offset) {
+            const PixelArray pixels(image);
+            for (double v : matrix)
+                if (!std::isfinite(v)) value_error("matrix must be finite");
+            for (double v : offset)
+                if (!std::isfinite(v)) value_error("offset must be finite");
+            Image out;
+            {
+                pybind11::gil_scoped_release release;
+                out = remap_latlong(pixels.to_image(), matrix, offset);
+            }
+            return image_array(out);
+        },
+        pybind11::arg("image"), pybind11::arg("matrix"), pybind11::arg("offset") = std::array<double, 3>{0, 0, 0},
+        "The lat-long image (H, W, 3|4) seen through the lookup d -> matrix @ d + offset (Blender directions,\n"
+        "matrix row-major, 9 numbers), as a Mapping node feeding an Environment Texture: (H, W, 3), bilinear.");
 }
 
 }  // namespace iblbake::py

@@ -315,3 +315,71 @@ TEST(Io, DataWindowIsPlacedInTheDisplayWindow) {
     EXPECT_EQ(li.image.at(5, 3)[0], 1.0f);   // top half: data
     EXPECT_EQ(li.image.at(5, 20)[0], 0.0f);  // bottom half: outside the data window
 }
+
+TEST(Bake, LevelRangeBakesOnlyThoseLevelsAndNamesTheRest) {
+    BakeOptions o = small_options();  // 16 -> 5 levels
+    o.lut = false;
+    o.first_level = 1;
+    o.last_level = 3;
+    const BakeResult part = compute_bake(ref::random_smooth_source(64, 32, 5), o);
+    BakeOptions all = o;
+    all.first_level = 0;
+    all.last_level = -1;
+    const BakeResult full = compute_bake(ref::random_smooth_source(64, 32, 5), all);
+    ASSERT_EQ(part.specular_levels, (std::vector<int>{1, 2, 3}));
+    for (size_t i = 0; i < part.specular.size(); ++i) {
+        const int m = part.specular_levels[i];
+        EXPECT_DOUBLE_EQ(part.roughness[i], full.roughness[m]);  // r_m still counts all M levels
+        ASSERT_EQ(part.specular[i].size, full.specular[m].size);
+        for (size_t k = 0; k < part.specular[i].pixels.size(); ++k)
+            EXPECT_NEAR(part.specular[i].pixels[k], full.specular[m].pixels[k], 2e-3f * (1.0f + full.specular[m].pixels[k]));
+    }
+    bool named = false;
+    for (const Skip& s : part.skipped) named |= s.what == "specular levels 0-0, 4-4";
+    EXPECT_TRUE(named);
+    const fs::path dir = temp_dir("levels");
+    const nlohmann::json m = write_bake(part, dir / "out", o, WriteOptions{}, SourceInfo{});
+    EXPECT_EQ(m["specular"][0]["level"], 1);
+    EXPECT_TRUE(fs::exists(dir / "out" / "specular_3.exr"));
+    EXPECT_FALSE(fs::exists(dir / "out" / "specular_0.exr"));
+    o.last_level = 5;
+    EXPECT_THROW(o.validate(), std::invalid_argument);
+    fs::remove_all(dir);
+}
+
+TEST(Bake, ConstantWorldInClosedFormMatchesTheIntegrators) {
+    BakeOptions o = small_options();
+    o.lut = false;
+    const std::array<float, 3> rgb{0.25f, 1.0f, 3.0f};
+    const BakeResult c = compute_constant_bake(rgb, o);
+    Image src(32, 16);
+    for (size_t k = 0; k < src.pixels.size(); ++k) src.pixels[k] = rgb[k % 3];
+    const BakeResult g = compute_bake(src, o);
+    ASSERT_TRUE(c.irradiance && g.irradiance);
+    for (size_t k = 0; k < c.irradiance->pixels.size(); ++k)
+        EXPECT_NEAR(c.irradiance->pixels[k], g.irradiance->pixels[k], 1e-3f * rgb[k % 3]);
+    ASSERT_EQ(c.specular.size(), g.specular.size());
+    for (size_t m = 0; m < c.specular.size(); ++m)
+        for (size_t k = 0; k < c.specular[m].pixels.size(); ++k)
+            EXPECT_NEAR(c.specular[m].pixels[k], g.specular[m].pixels[k], 1e-3f * rgb[k % 3]);
+    for (int ch = 0; ch < 3; ++ch)
+        for (int i = 0; i < 9; ++i) EXPECT_NEAR(c.sh9[ch][i], g.sh9[ch][i], 1e-5 * (1 + std::fabs(g.sh9[ch][i])));
+    // A NaN colour is bad input like any other.
+    const BakeResult bad = compute_constant_bake({std::nanf(""), 1.0f, 1.0f}, o);
+    EXPECT_EQ(bad.bad_input.nan, 1u);
+    EXPECT_EQ(bad.irradiance->pixels[0], 0.0f);
+    o.strict = true;
+    EXPECT_THROW(compute_constant_bake({-1.0f, 1.0f, 1.0f}, o), BadInputError);
+}
+
+TEST(Bake, ManifestExtraKeysAreAddedButNeverReplaceTheContract) {
+    BakeOptions o = small_options();
+    const BakeResult r = compute_constant_bake({1, 1, 1}, o);
+    WriteOptions wo;
+    wo.manifest_extra = {{"blender", {{"world_path", "plain colour"}}}};
+    const nlohmann::json m = make_manifest(r, o, wo, SourceInfo{}, nlohmann::json::object());
+    EXPECT_EQ(m["blender"]["world_path"], "plain colour");
+    EXPECT_EQ(m["contract"], 1);
+    wo.manifest_extra = {{"sh9", 0}};
+    EXPECT_THROW(make_manifest(r, o, wo, SourceInfo{}, nlohmann::json::object()), std::invalid_argument);
+}

@@ -151,3 +151,23 @@ TEST(Source, BilinearIsExactAtTexelCentresAndWraps) {
     latlong_bilinear(img, blender_to_engine(latlong_to_direction(0.0, 1.0 - 0.25)), v);
     EXPECT_NEAR(v[0], 0.5f * (3 + 0), 1e-5);
 }
+
+TEST(Source, RemapIsIdentityOrAColumnShiftForRotationsAboutZ) {
+    const Image src = ref::random_smooth_source(64, 32, 3);
+    const Image same = remap_latlong(src, {1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0});
+    for (size_t k = 0; k < src.pixels.size(); ++k) ASSERT_NEAR(same.pixels[k], src.pixels[k], 1e-5f);
+    // Looking up Rz(90 deg) d: the result at column x is the source at x - W/4
+    // (u = 0.5 - phi / 2 pi falls by 1/4 as phi grows by 90 degrees).
+    const Image rot = remap_latlong(src, {0, -1, 0, 1, 0, 0, 0, 0, 1}, {0, 0, 0});
+    for (int y = 0; y < 32; ++y)
+        for (int x = 0; x < 64; ++x)
+            for (int k = 0; k < 3; ++k) ASSERT_NEAR(rot.at(x, y)[k], src.at((x + 64 - 16) % 64, y)[k], 1e-5f);
+    // A uniform scale changes nothing (the lookup is normalised); a zero map
+    // reads the image centre (u = v = 0.5, +X).
+    const Image scaled = remap_latlong(src, {3, 0, 0, 0, 3, 0, 0, 0, 3}, {0, 0, 0});
+    for (size_t k = 0; k < src.pixels.size(); ++k) ASSERT_NEAR(scaled.pixels[k], src.pixels[k], 1e-5f);
+    const Image zero = remap_latlong(src, {0, 0, 0, 0, 0, 0, 0, 0, 0}, {0, 0, 0});
+    float mid[3];
+    latlong_bilinear(src, {1, 0, 0}, mid);
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(zero.at(5, 7)[k], mid[k]);
+}

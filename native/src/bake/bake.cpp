@@ -34,8 +34,9 @@ int pow2_ceil(double x) {
 // chains whose first roughness is below about 0.05 use coarser bins than eps asks.
 int finest_bin_width(const BakeOptions& o) {
     const int mips = o.resolved_mip_count();
-    if (!o.specular || mips < 2 || o.specular_method != SpecularMethod::Hierarchical) return 2;
-    const double r1 = o.mip_roughness(1), a1 = r1 * r1;
+    if (!o.specular || mips < 2 || o.specular_method != SpecularMethod::Hierarchical || o.resolved_last_level() < 1)
+        return 2;
+    const double r1 = o.mip_roughness(std::max(1, o.first_level)), a1 = r1 * r1;
     return std::clamp(pow2_ceil(2.2 / (o.hierarchical.eps * a1)), 2, 4096);
 }
 
@@ -69,6 +70,36 @@ auto in_arena(int threads, Fn&& fn) {
     if (threads <= 0) return fn();
     tbb::task_arena arena(threads);
     return arena.execute(fn);
+}
+
+// The LUT, read from the cache when there (it depends on its settings alone).
+void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
+    const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
+    if (lut_cache) r.lut = lut_cache->load(key);
+    if (r.lut && (r.lut->width != o.lut_size || r.lut->height != o.lut_size)) r.lut.reset();
+    r.lut_from_cache = bool(r.lut);
+    if (!r.lut) {
+        r.lut = bake_brdf_lut(o.lut_size, o.lut_model, o.lut_quality);
+        if (lut_cache) lut_cache->store(key, *r.lut);
+    }
+}
+
+// Why an output is off: the caller's reason, else `fallback`.
+Skip skip_reason(const BakeOptions& o, const std::string& what, const std::string& fallback) {
+    for (const Skip& s : o.skip_reasons)
+        if (s.what == what) return {what, s.why};
+    return {what, fallback};
+}
+
+// The levels outside first_level..last_level, as one `skipped` entry.
+void skip_levels(BakeResult& r, const BakeOptions& o) {
+    const int mips = o.resolved_mip_count(), last = o.resolved_last_level();
+    if (o.first_level == 0 && last == mips - 1) return;
+    std::string what = "specular levels";
+    if (o.first_level > 0) what += " 0-" + std::to_string(o.first_level - 1);
+    if (last < mips - 1)
+        what += std::string(o.first_level > 0 ? "," : "") + " " + std::to_string(last + 1) + "-" + std::to_string(mips - 1);
+    r.skipped.push_back({what, skip_reason(o, "specular_levels", "outside the requested level range").why});
 }
 
 }  // namespace
@@ -109,7 +140,13 @@ void BakeOptions::validate() const {
     check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
     check(max_hot >= 0 && max_hot <= 1 << 20, "max_hot must be in 0..1048576");
     check(threads >= 0 && threads <= 1024, "threads must be in 0..1024 (0: all cores)");
+    const int mips = resolved_mip_count();
+    check(first_level >= 0 && first_level < mips, "first_level must be in 0..mip_count-1");
+    check(last_level == -1 || (last_level >= first_level && last_level < mips),
+          "last_level must be -1 (the last) or in first_level..mip_count-1");
 }
+
+int BakeOptions::resolved_last_level() const { return last_level < 0 ? resolved_mip_count() - 1 : last_level; }
 
 int BakeOptions::resolved_mip_count() const { return mip_count > 0 ? mip_count : floor_log2(face_size) + 1; }
 
@@ -182,11 +219,7 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
         }
         advance(0.05);
 
-        auto skip = [&](const char* what) {
-            for (const Skip& s : o.skip_reasons)
-                if (s.what == what) { r.skipped.push_back(s); return; }
-            r.skipped.push_back({what, "disabled by option"});
-        };
+        auto skip = [&](const char* what) { r.skipped.push_back(skip_reason(o, what, "disabled by option")); };
 
         if (o.irradiance) {
             report("irradiance", done);
@@ -219,12 +252,13 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
                 latlong_to_cube(cube, split.rest, ss);  // split.rest is on the integration grid
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
-            } else if (mips > 1) {
+            } else if (o.resolved_last_level() > 0) {
                 r.specular_base_face = finest_bins;
                 tree = build_bin_tree(integrand, finest_bins);
                 clock.done("bin_tree");
             }
-            for (int m = 0; m < mips; ++m) {
+            const int first = o.first_level, last = o.resolved_last_level();
+            for (int m = first; m <= last; ++m) {
                 const int n = std::max(1, o.face_size >> m);
                 const double rough = o.mip_roughness(m);
                 Cubemap level(n);
@@ -243,11 +277,12 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
                     r.specular_methods.push_back("filtered importance sampling + hot texels");
                 }
                 r.specular.push_back(std::move(level));
+                r.specular_levels.push_back(m);
                 r.roughness.push_back(rough);
-                const double share = (m == 0 ? 0.5 : 0.5 / (mips - 1));
-                advance(w_spec * (mips == 1 ? 1.0 : share));
+                advance(w_spec / (last - first + 1));
                 report("specular", done);
             }
+            skip_levels(r, o);
             clock.done("specular");
         } else {
             skip("specular");
@@ -255,14 +290,7 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
 
         if (o.lut) {
             report("brdf_lut", done);
-            const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
-            if (lut_cache) r.lut = lut_cache->load(key);
-            if (r.lut && (r.lut->width != o.lut_size || r.lut->height != o.lut_size)) r.lut.reset();
-            r.lut_from_cache = bool(r.lut);
-            if (!r.lut) {
-                r.lut = bake_brdf_lut(o.lut_size, o.lut_model, o.lut_quality);
-                if (lut_cache) lut_cache->store(key, *r.lut);
-            }
+            lut_stage(r, o, lut_cache);
             clock.done("brdf_lut");
             advance(w_lut);
         } else {
@@ -278,6 +306,61 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
                 for (double& v : ch) v = std::ldexp(v, scale_exp);
             for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
             r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
+        }
+        report("done", 1.0);
+        return r;
+    });
+}
+
+}  // namespace iblbake
+
+namespace iblbake {
+
+BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOptions& o, const ProgressFn& progress,
+                                 LutCache* lut_cache) {
+    o.validate();
+    return in_arena(o.threads, [&] {
+        BakeResult r;
+        StageClock clock(r);
+        auto report = [&](const std::string& stage, double f) {
+            if (progress && !progress(stage, f)) throw Cancelled();
+        };
+        report("reading source", 0.0);
+        Image one(1, 1);
+        std::copy(rgb.begin(), rgb.end(), one.pixels.begin());
+        r.bad_input = sanitize(one);
+        if (o.strict && r.bad_input.any()) throw BadInputError("the world colour is not a finite, non-negative colour");
+        const float* c = one.at(0, 0);
+        auto fill = [&](int n) {
+            Cubemap cube(n);
+            for (size_t k = 0; k < cube.pixels.size(); ++k) cube.pixels[k] = c[k % 3];
+            return cube;
+        };
+        for (int k = 0; k < 3; ++k) {
+            r.mean_radiance[k] = c[k];
+            r.sh9[k][0] = 2.0 * std::sqrt(kPi) * c[k];  // integral of Y_00 = 1 / (2 sqrt(pi)) over the sphere
+        }
+        if (o.irradiance) r.irradiance = fill(o.irradiance_size);
+        else r.skipped.push_back(skip_reason(o, "irradiance", "disabled by option"));
+        if (o.specular) {
+            for (int m = o.first_level; m <= o.resolved_last_level(); ++m) {
+                r.specular.push_back(fill(std::max(1, o.face_size >> m)));
+                r.specular_levels.push_back(m);
+                r.roughness.push_back(o.mip_roughness(m));
+                r.samples_per_texel.push_back(0);
+                r.specular_methods.push_back("closed form (constant world)");
+            }
+            skip_levels(r, o);
+        } else {
+            r.skipped.push_back(skip_reason(o, "specular", "disabled by option"));
+        }
+        clock.done("constant");
+        if (o.lut) {
+            report("brdf_lut", 0.5);
+            lut_stage(r, o, lut_cache);
+            clock.done("brdf_lut");
+        } else {
+            r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
         report("done", 1.0);
         return r;

@@ -49,6 +49,7 @@ void WriteOptions::validate() const {
     if (!exr && !png) throw std::invalid_argument("no output format: ask for exr, png or both");
     if (!std::isfinite(exposure) || std::fabs(exposure) > 64.0f)
         throw std::invalid_argument("exposure must be a finite number of stops in -64..64");
+    if (!manifest_extra.is_object()) throw std::invalid_argument("manifest_extra must be a JSON object");
     if (!std::isfinite(rgbm_range) || !(rgbm_range > 0.0f) || rgbm_range > 1e6f)
         throw std::invalid_argument("rgbm_range must be > 0 and finite");
 }
@@ -79,8 +80,8 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     }
     json spec = json::array();
     for (size_t i = 0; i < r.specular.size(); ++i) {
-        spec.push_back({{"level", i},
-                        {"file", primary_file("specular_" + std::to_string(i), wo)},
+        spec.push_back({{"level", r.specular_levels[i]},
+                        {"file", primary_file("specular_" + std::to_string(r.specular_levels[i]), wo)},
                         {"face_size", r.specular[i].size},
                         {"roughness", r.roughness[i]},
                         {"samples_per_texel", r.samples_per_texel[i]},
@@ -143,7 +144,13 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                     {"lut_phi_points", bo.lut_quality.phi_points},
                     {"lut_u_points", bo.lut_quality.u_points},
                     {"hot_threshold", bo.hot_threshold},
-                    {"max_hot", bo.max_hot}};
+                    {"max_hot", bo.max_hot},
+                    {"first_level", bo.first_level},
+                    {"last_level", bo.resolved_last_level()}};
+    for (const auto& [key, value] : wo.manifest_extra.items()) {
+        if (m.contains(key)) throw std::invalid_argument("manifest_extra may not replace the manifest's '" + key + "'");
+        m[key] = value;
+    }
     return m;
 }
 
@@ -156,7 +163,7 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
     json encodings = json::object();
     if (r.irradiance) write_cross(dir, "irradiance", *r.irradiance, wo, encodings);
     for (size_t i = 0; i < r.specular.size(); ++i)
-        write_cross(dir, "specular_" + std::to_string(i), r.specular[i], wo, encodings);
+        write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, encodings);
     if (r.lut) {
         const Image& lut = *r.lut;
         if (wo.exr) {

@@ -97,6 +97,21 @@ Image resample_latlong(const Image& img, int w, int h) {
     return out;
 }
 
+Image remap_latlong(const Image& img, const std::array<double, 9>& a, const std::array<double, 3>& b) {
+    const int w = img.width, h = img.height;
+    Image out(w, h);
+    parallel_for(0, h, [&](int y) {
+        for (int x = 0; x < w; ++x) {
+            const Vec3d d = latlong_texel_direction(x, y, w, h);
+            Vec3d m{a[0] * d.x + a[1] * d.y + a[2] * d.z + b[0], a[3] * d.x + a[4] * d.y + a[5] * d.z + b[1],
+                    a[6] * d.x + a[7] * d.y + a[8] * d.z + b[2]};
+            if (!(length(m) > 0.0)) m = {1.0, 0.0, 0.0};  // degenerate: the image centre (u = v = 0.5)
+            latlong_bilinear(img, blender_to_engine(m), out.at(x, y));
+        }
+    });
+    return out;
+}
+
 HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);

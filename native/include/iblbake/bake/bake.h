@@ -34,6 +34,9 @@ struct BakeOptions {
     int irradiance_size = 32;
     int mip_count = 0;          // 0: floor(log2(face_size)) + 1
     int lut_size = 512;
+    // Only specular levels first_level .. last_level (-1: the last) are baked;
+    // the others are listed in `skipped` (roughness r_m still counts all M levels).
+    int first_level = 0, last_level = -1;
     LutModel lut_model = LutModel::Karis;
     bool irradiance = true, specular = true, lut = true;
     std::vector<Skip> skip_reasons;  // why an output is off (else "disabled by option")
@@ -53,12 +56,14 @@ struct BakeOptions {
     // Throws std::invalid_argument naming the option at fault.
     void validate() const;
     int resolved_mip_count() const;
+    int resolved_last_level() const;
     double mip_roughness(int level) const;  // SPEC: r_m = m / (M - 1)
 };
 
 struct BakeResult {
     std::optional<Cubemap> irradiance;
     std::vector<Cubemap> specular;
+    std::vector<int> specular_levels;  // mip level of each entry of `specular`
     std::vector<double> roughness;
     std::optional<Image> lut;
     std::array<Sh9, 3> sh9{};
@@ -94,6 +99,12 @@ class LutCache;
 // from it when present and stored into it when made.
 BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {},
                         LutCache* lut_cache = nullptr);
+
+// The bake of a constant world of radiance `rgb` (a plain-colour world), in
+// closed form: Irr = Pre = rgb everywhere, SH9 = rgb * 2 sqrt(pi) in L_00
+// alone. The LUT is made (or read from the cache) as in compute_bake.
+BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOptions& options,
+                                 const ProgressFn& progress = {}, LutCache* lut_cache = nullptr);
 
 // Just the LUT (it depends on nothing but its own settings).
 Image compute_lut(int size, LutModel model, const LutQuality& q = {}, int threads = 0);

@@ -17,6 +17,9 @@ struct WriteOptions {
     PngEncoding png_encoding = PngEncoding::Srgb;
     float exposure = 0.0f;       // stops, PNG only
     float rgbm_range = 8.0f;
+    // More top-level manifest keys (e.g. what a Blender world was turned
+    // into); they may not replace the contract's own keys.
+    nlohmann::json manifest_extra = nlohmann::json::object();
     void validate() const;  // throws std::invalid_argument
 };
 

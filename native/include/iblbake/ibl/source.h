@@ -31,6 +31,13 @@ void latlong_bilinear(const Image& img, const Vec3d& engine_dir, float out[3]);
 // to the resolution the integrators need.
 Image resample_latlong(const Image& img, int w, int h);
 
+// The lat-long image seen through an affine change of lookup direction, as
+// Blender's Mapping node feeding an Environment Texture does it: texel (x, y)
+// of the result holds L(normalize(A d + b)), d its centre's Blender direction,
+// A row-major 3x3. Same size as `img`; a zero vector reads the centre
+// (u = v = 0.5).
+Image remap_latlong(const Image& img, const std::array<double, 9>& a, const std::array<double, 3>& b);
+
 // A source texel (or a block of them) as a point: engine direction and power
 // (radiance times solid angle) per channel.
 struct RadiancePoint {
