@@ -7,6 +7,7 @@
 PYBIND11_MODULE(iblbake_core, m) {
     m.doc() = "iblbake native core: bake image-based lighting from a lat-long environment (SPEC.md contract 1)";
     m.attr("CONTRACT") = 1;
+    m.attr("__version__") = IBLBAKE_VERSION;
     pybind11::register_exception<iblbake::Cancelled>(m, "Cancelled", PyExc_RuntimeError);
     pybind11::register_exception_translator([](std::exception_ptr p) {
         try {

@@ -1,0 +1,37 @@
+"""iblbake: bake a world's image-based lighting (irradiance, GGX prefiltered
+specular, BRDF LUT) from World Properties or `blender -b`. This file only
+registers; see operators.py, panel.py, preferences.py, properties.py and the
+bpy-free core/ package."""
+
+bl_info = {
+    "name": "iblbake",
+    "author": "iblbake developers",
+    "version": (0, 2, 0),
+    "blender": (3, 4, 0),
+    "location": "Properties > World > Image-Based Lighting",
+    "description": "Bake the world into engine-ready IBL: irradiance + SH9, prefiltered specular, BRDF LUT",
+    "category": "Lighting",
+}
+
+if "bpy" in locals():  # F8 / script reload: re-import the submodules
+    import importlib
+    for _m in (properties, preferences, world_reader, scene_needs, operators, panel):  # noqa: F821
+        importlib.reload(_m)
+
+import bpy  # noqa: E402
+
+from . import operators, panel, preferences, properties, scene_needs, world_reader  # noqa: E402,F401
+
+_CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
+
+
+def register():
+    for cls in _CLASSES:
+        bpy.utils.register_class(cls)
+    properties.register_props()
+
+
+def unregister():
+    properties.unregister_props()
+    for cls in reversed(_CLASSES):
+        bpy.utils.unregister_class(cls)

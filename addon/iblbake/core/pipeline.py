@@ -1,0 +1,144 @@
+"""The bake, given pixels (or a colour) and a BakeSettings: decides what to
+skip, hashes the content, calls the native baker and writes one folder
+atomically. No bpy."""
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from . import native
+from .needs import Needs
+from .settings import BakeSettings
+from .world import COLOR, WorldSource
+
+ProgressFn = Callable[[str, float], bool]  # (stage, fraction) -> False cancels
+
+
+class BakeError(Exception):
+    """A bake that could not be done; the message says why and what to change."""
+
+
+@dataclass
+class BakeReport:
+    status: str                    # "baked" or "unchanged"
+    out_dir: str
+    content_hash: str
+    manifest: dict = field(default_factory=dict)
+    seconds: float = 0.0
+
+    def summary(self) -> str:
+        if self.status == "unchanged":
+            return "World and settings unchanged since the bake in %s (hash %s): nothing to do" % (
+                self.out_dir, self.content_hash[:12])
+        spec = self.manifest.get("specular") or []
+        levels = ("specular levels %d-%d" % (spec[0]["level"], spec[-1]["level"])) if spec else "no specular"
+        return "Baked in %.2f s into %s (%s%s%s)" % (
+            self.seconds, self.out_dir, "irradiance, " if self.manifest.get("irradiance") else "", levels,
+            ", LUT" if self.manifest.get("brdf_lut") else "")
+
+
+def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
+    """Keyword options of iblbake_core.bake() for these settings; the scene's
+    needs switch outputs and specular levels off when auto_skip is on."""
+    opts = dict(face_size=settings.face_size, irradiance_size=settings.irradiance_size,
+                mip_count=settings.mip_count, lut_size=settings.lut_size, lut_model=settings.lut_model,
+                formats=list(settings.formats), png_encoding=settings.png_encoding,
+                exposure=float(settings.exposure), float32=settings.float32, eps=float(settings.eps),
+                threads=settings.threads, irradiance=settings.irradiance, specular=settings.specular,
+                lut=settings.lut)
+    reasons = {}
+    if settings.auto_skip and needs is not None and needs.analysed:
+        for key, out in (("irradiance", "irradiance"), ("specular", "specular"), ("lut", "brdf_lut")):
+            if opts[key] and not getattr(needs, key):
+                opts[key] = False
+                reasons[out] = needs.reasons.get(out, "not used by the scene")
+        if opts["specular"] and needs.levels is not None:
+            opts["first_level"], opts["last_level"] = needs.levels
+            if "specular_levels" in needs.reasons:
+                reasons["specular_levels"] = needs.reasons["specular_levels"]
+    if reasons:
+        opts["skip_reasons"] = reasons
+    return opts
+
+
+def content_hash(source: WorldSource, pixels: Optional[np.ndarray], opts: dict, settings: BakeSettings,
+                 core_version: str) -> str:
+    """sha256 of the radiance the bake reads and of every setting that changes a file."""
+    h = hashlib.sha256()
+    meta = {"core": core_version, "settings": settings.hash_fields(),
+            "options": {k: v for k, v in opts.items() if k not in ("threads",)}, "path": source.path}
+    h.update(json.dumps(meta, sort_keys=True, default=str).encode())
+    if pixels is not None:
+        a = np.ascontiguousarray(pixels, dtype=np.float32)
+        h.update(repr(a.shape).encode())
+        h.update(memoryview(a).cast("B"))
+    else:
+        h.update(np.asarray(source.color, np.float32).tobytes())
+    return h.hexdigest()
+
+
+def existing_hash(out_dir: str) -> Optional[str]:
+    """The content hash of the complete bake in out_dir, if there is one."""
+    try:
+        with open(os.path.join(out_dir, "manifest.json")) as f:
+            m = json.load(f)
+    except (OSError, ValueError):
+        return None
+    files = [e["file"] for e in m.get("specular") or []]
+    for key in ("irradiance", "brdf_lut"):
+        if m.get(key):
+            files.append(m[key]["file"])
+    if not all(os.path.isfile(os.path.join(out_dir, f)) for f in files):
+        return None
+    return (m.get("blender") or {}).get("content_hash")
+
+
+def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettings,
+         needs: Optional[Needs] = None, progress: Optional[ProgressFn] = None, extra: Optional[dict] = None
+         ) -> BakeReport:
+    """Bake `pixels` ((H, W, 3) float32 lat-long radiance, rows top-down) or,
+    for a plain-colour world, source.color, into settings.out_dir. Skips the
+    bake when the folder already holds one of the same content hash (unless
+    settings.force). Raises BakeError (bad settings or input) or
+    iblbake_core.Cancelled; neither touches an earlier bake."""
+    core = native.load()
+    try:
+        settings.validate()
+    except ValueError as e:
+        raise BakeError(str(e)) from e
+    if source.path != COLOR and pixels is None:
+        raise BakeError("no pixels to bake")
+    out_dir = os.path.abspath(settings.out_dir)
+    opts = native_options(settings, needs)
+    digest = content_hash(source, pixels, opts, settings, core.__version__)
+    if not settings.force and existing_hash(out_dir) == digest:
+        return BakeReport("unchanged", out_dir, digest)
+
+    blender = dict(extra or {})
+    blender.update(source.to_json())
+    blender["needs"] = needs.to_json() if needs is not None else None
+    blender["auto_skip"] = settings.auto_skip
+    blender["content_hash"] = digest
+    opts["manifest_extra"] = {"blender": blender}
+    cache = settings.lut_cache_dir or core.default_lut_cache_dir()
+    if cache:
+        opts["lut_cache_dir"] = cache
+    if progress is not None:
+        opts["progress"] = progress
+    if source.image_path and os.path.isfile(source.image_path):
+        opts["source_path"] = source.image_path
+    start = time.perf_counter()
+    try:
+        if source.path == COLOR:
+            result = core.bake_constant([float(c) for c in source.color], out_dir, **opts)
+        else:
+            result = core.bake(pixels, out_dir, **opts)
+    except core.Cancelled:
+        raise
+    except (ValueError, RuntimeError, OSError) as e:  # bad input, a refused or unwritable folder
+        raise BakeError(str(e)) from e
+    return BakeReport("baked", out_dir, digest, result["manifest"], time.perf_counter() - start)

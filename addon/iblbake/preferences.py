@@ -1,0 +1,58 @@
+"""Add-on preferences: the default output folder and the option defaults."""
+import bpy
+from bpy.props import StringProperty
+
+from .properties import BakeOptionProps
+
+ADDON_ID = __package__  # "iblbake", or "bl_ext.<repo>.iblbake" as a 4.2+ extension
+
+
+class IBLBAKE_AddonPreferences(BakeOptionProps, bpy.types.AddonPreferences):
+    bl_idname = ADDON_ID
+
+    default_output_dir: StringProperty(
+        name="Default Output Folder", subtype="DIR_PATH", default="//ibl/{world}",
+        description="Used when a scene names no folder; {blend}, {scene} and {world} are replaced, "
+                    "// is the .blend file's folder")
+    lut_cache_dir: StringProperty(
+        name="LUT Cache", subtype="DIR_PATH", default="",
+        description="Where BRDF LUTs are kept and reused across scenes (empty: ~/.cache/iblbake, "
+                    "shared with the iblbake command line)")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "default_output_dir")
+        layout.prop(self, "lut_cache_dir")
+        draw_options(layout, self)
+
+
+def draw_options(layout, props):
+    """The shared options, as the preferences and the World panel show them."""
+    col = layout.column(align=True)
+    col.prop(props, "face_size")
+    col.prop(props, "mip_count")
+    col.prop(props, "irradiance_size")
+    col = layout.column(align=True)
+    col.prop(props, "lut_size")
+    col.prop(props, "lut_model")
+    row = layout.row(heading="Formats")
+    row.prop(props, "write_exr")
+    row.prop(props, "write_png")
+    if props.write_png:
+        layout.prop(props, "png_encoding")
+        layout.prop(props, "exposure")
+    col = layout.column(align=True)
+    col.prop(props, "render_width")
+    col.prop(props, "render_samples")
+
+
+def get(context=None):
+    """The preferences, or None when the add-on is not enabled as such
+    (imported by a script instead): callers fall back to the defaults."""
+    context = context or bpy.context
+    addon = context.preferences.addons.get(ADDON_ID)
+    return addon.preferences if addon else None
+
+
+classes = (IBLBAKE_AddonPreferences,)
