@@ -46,6 +46,15 @@ void bind_geometry(pybind11::module_& m) {
         },
         "Read an image as the bake does: (H, W, 3) float32, linear.");
     m.def(
+        "write_exr",
+        [](const std::string& path, const pybind11::handle& image) {
+            const PixelArray pixels(image);
+            pybind11::gil_scoped_release release;
+            io::write_exr(path, pixels.to_image(), io::ExrPixel::Float);
+        },
+        pybind11::arg("path"), pybind11::arg("image"),
+        "Write a (H, W, 3|4) float32 array (rows top-down, alpha dropped) as a zip-compressed full-float RGB EXR.");
+    m.def(
         "remap_latlong",
         [](const pybind11::handle& image, const std::array<double, 9>& matrix, const std::array<double, 3>& offset) {
             const PixelArray pixels(image);

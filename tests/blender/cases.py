@@ -1,0 +1,290 @@
+"""Scenes for the add-on's tests, run inside headless Blender:
+
+  blender -b --factory-startup --python tests/blender/cases.py -- CASE WORKDIR [key=value ...]
+
+Each case builds a scene, drives the add-on through bpy.ops.iblbake.bake()
+and writes what it saw to WORKDIR/result.json for test_addon.py to check
+(numbers are compared there, outside Blender)."""
+import json
+import math
+import os
+import sys
+from pathlib import Path
+
+import bpy
+import mathutils
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "addon"))
+import iblbake  # noqa: E402
+from iblbake import operators  # noqa: E402
+from iblbake.core import native, pipeline  # noqa: E402
+from iblbake.core.job import BakeJob  # noqa: E402
+
+iblbake.register()
+
+
+def direction_field(width, height):
+    """A lat-long whose colour is its direction: rgb = 0.5 + 0.5 (x, y, z)
+    (Blender axes), so any flip or turn of an axis changes the colour."""
+    v = 1.0 - (np.arange(height) + 0.5) / height
+    u = (np.arange(width) + 0.5) / width
+    lat = (v - 0.5) * math.pi
+    phi = (0.5 - u) * 2 * math.pi
+    x = np.cos(lat)[:, None] * np.cos(phi)[None, :]
+    y = np.cos(lat)[:, None] * np.sin(phi)[None, :]
+    z = np.broadcast_to(np.sin(lat)[:, None], x.shape)
+    return (0.5 + 0.5 * np.stack([x, y, z], -1)).astype(np.float32)
+
+
+def save_exr(path, rgb):
+    """Writes a (H, W, 3) top-down array as a float EXR (the native writer:
+    Blender's Image.save() would encode the float buffer for display)."""
+    native.load().write_exr(str(path), np.ascontiguousarray(rgb, dtype=np.float32))
+    return str(path)
+
+
+def image_world(path, strength=1.0, rotation=(0, 0, 0), mapping_type="POINT"):
+    world = bpy.data.worlds.new("image world")
+    world.use_nodes = True
+    nt = world.node_tree
+    bg = nt.nodes["Background"]
+    env = nt.nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(str(path), check_existing=False)
+    nt.links.new(env.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = strength
+    if any(rotation):
+        mapping = nt.nodes.new("ShaderNodeMapping")
+        mapping.vector_type = mapping_type
+        coords = nt.nodes.new("ShaderNodeTexCoord")
+        mapping.inputs["Rotation"].default_value = [math.radians(a) for a in rotation]
+        nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+        nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    bpy.context.scene.world = world
+    return world
+
+
+def empty_scene(face_size=32):
+    scene = bpy.context.scene
+    for obj in list(scene.objects):
+        bpy.data.objects.remove(obj)
+    p = scene.iblbake
+    p.use_scene_options = True
+    p.face_size, p.irradiance_size, p.lut_size = face_size, 8, 32
+    return scene
+
+
+def bake(out, **props):
+    scene = bpy.context.scene
+    scene.iblbake.output_dir = str(out)
+    for k, v in props.items():
+        setattr(scene.iblbake, k, v)
+    try:
+        result = bpy.ops.iblbake.bake()
+    except RuntimeError:  # an operator that reports an error raises in scripts
+        result = {"CANCELLED"}
+    return {"result": sorted(result), "status": scene.iblbake.last_status, "error": scene.iblbake.last_error}
+
+
+def render_directions(dirs, samples=16):
+    """Cycles' own view of the world along each Blender direction: the mean
+    of a narrow (1 degree) perspective render."""
+    scene = bpy.context.scene
+    cam_data = bpy.data.cameras.new("probe")
+    cam_data.angle = math.radians(1.0)
+    cam = bpy.data.objects.new("probe", cam_data)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    r = scene.render
+    r.engine = "CYCLES"
+    r.resolution_x = r.resolution_y = 8
+    r.resolution_percentage = 100
+    r.image_settings.file_format = "OPEN_EXR"
+    r.image_settings.color_depth = "32"
+    scene.cycles.samples = samples
+    scene.cycles.use_denoising = False
+    scene.view_settings.view_transform = "Standard"
+    out = []
+    for d in dirs:
+        cam.rotation_euler = mathutils.Vector(d).to_track_quat("-Z", "Y").to_euler()
+        r.filepath = os.path.join(WORK, "probe.exr")
+        bpy.ops.render.render(write_still=True)
+        img = bpy.data.images.load(r.filepath, check_existing=False)
+        px = np.empty(len(img.pixels), np.float32)
+        img.pixels.foreach_get(px)
+        out.append(px.reshape(-1, 4)[:, :3].mean(0).tolist())
+        bpy.data.images.remove(img)
+    bpy.data.objects.remove(cam)
+    return out
+
+
+# Along +-X, +-Y and +-Z, the poles tilted 2 degrees: within half a texel of a
+# pole Cycles repeats the image vertically (the top row blends with the
+# bottom one) where SPEC.md clamps, and a 1-degree probe there would mix both.
+PROBES = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0.0349, 0, 0.9994), (0.0349, 0, -0.9994),
+          (0.6, 0.48, 0.64), (-0.36, 0.8, -0.48)]
+
+
+def case_orientation(args):
+    """A direction-coded world (optionally through a Mapping node and a
+    Strength) baked by the add-on, and rendered by Cycles along PROBES."""
+    empty_scene(face_size=int(args.get("face", 64)))
+    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(512, 256))
+    rot = tuple(float(a) for a in args.get("rotation", "0,0,0").split(","))
+    image_world(path, float(args.get("strength", 1.0)), rot, args.get("mapping_type", "POINT"))
+    res = bake(os.path.join(WORK, "out"), bake_lut=False, mip_count=2)
+    res["probes"] = PROBES
+    res["cycles"] = render_directions(PROBES)
+    return res
+
+
+def case_sky(args):
+    """A Sky Texture world: rendered to a lat-long by Cycles, then baked."""
+    scene = empty_scene()
+    world = bpy.data.worlds.new("sky")
+    world.use_nodes = True
+    nt = world.node_tree
+    sky = nt.nodes.new("ShaderNodeTexSky")
+    sky.sky_type = "HOSEK_WILKIE"
+    sky.sun_direction = mathutils.Vector((0.3, -0.5, 0.4)).normalized()
+    nt.links.new(sky.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    scene.world = world
+    scene.iblbake.render_width, scene.iblbake.render_samples = 256, 16
+    res = bake(os.path.join(WORK, "out"), bake_lut=False, mip_count=2)
+    probes = [(0, 0, 1), (0.7, 0.0, 0.714), (-0.5, 0.6, 0.624), (0.0, -0.8, 0.6), (-0.9, -0.1, 0.42)]
+    res["probes"] = probes
+    res["cycles"] = render_directions(probes)
+    return res
+
+
+def case_color(args):
+    scene = empty_scene()
+    bg = scene.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.2, 0.4, 0.8, 1.0)
+    bg.inputs["Strength"].default_value = 1.5
+    return bake(os.path.join(WORK, "out"))
+
+
+def case_unchanged(args):
+    """Bake, bake again (skipped), change Strength (baked again)."""
+    empty_scene()
+    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(64, 32))
+    world = image_world(path)
+    out = os.path.join(WORK, "out")
+    first = bake(out)
+    mtime = os.stat(os.path.join(out, "manifest.json")).st_mtime_ns
+    second = bake(out)
+    same_file = os.stat(os.path.join(out, "manifest.json")).st_mtime_ns == mtime
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 2.0
+    third = bake(out)
+    forced = bake(out, force=True)
+    return {"first": first, "second": second, "untouched": same_file, "third": third, "forced": forced}
+
+
+def add_cube(material):
+    bpy.ops.mesh.primitive_cube_add()
+    bpy.context.active_object.data.materials.append(material)
+
+
+def material(name, kind, **inputs):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        if n.bl_idname != "ShaderNodeOutputMaterial":
+            nt.nodes.remove(n)
+    node = nt.nodes.new(kind)
+    nt.links.new(node.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    for k, v in inputs.items():
+        if v == "texture":
+            tex = nt.nodes.new("ShaderNodeTexNoise")
+            nt.links.new(tex.outputs["Fac"], node.inputs[k])
+        else:
+            node.inputs[k].default_value = v
+    return mat
+
+
+def case_needs(args):
+    """What the materials use decides what is baked."""
+    empty_scene(face_size=32)  # 6 levels, r_m = m / 5
+    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(64, 32))
+    image_world(path)
+    out = {}
+    add_cube(material("diffuse", "ShaderNodeBsdfDiffuse"))
+    out["diffuse_only"] = bake(os.path.join(WORK, "diffuse_only"))
+    bpy.context.active_object.data.materials[0] = material(
+        "plastic", "ShaderNodeBsdfPrincipled", Roughness=0.3, Metallic=0.0)
+    out["principled_0.3"] = bake(os.path.join(WORK, "principled"))
+    bpy.context.active_object.data.materials[0] = material(
+        "metal", "ShaderNodeBsdfPrincipled", Roughness="texture", Metallic=1.0)
+    out["metal_textured"] = bake(os.path.join(WORK, "metal"))
+    out["metal_no_auto_skip"] = bake(os.path.join(WORK, "metal_all"), auto_skip=False)
+    return out
+
+
+def case_cancel(args):
+    """A bake cancelled half-way (the modal operator's background job) leaves
+    the earlier bake as it was."""
+    scene = empty_scene()
+    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(128, 64))
+    world = image_world(path)
+    out = os.path.join(WORK, "out")
+    first = bake(out)
+    before = open(os.path.join(out, "manifest.json")).read()
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 3.0
+    settings, needs, source, pixels, extra = operators.prepare(bpy.context, scene)
+    stages = []
+
+    def work(progress):
+        def watch(stage, fraction):
+            stages.append(stage)
+            if stage == "specular":
+                job.cancel()
+            return progress(stage, fraction)
+        return pipeline.bake(source, pixels, settings, needs, watch, extra)
+
+    job = BakeJob(work).start()
+    job.wait(120)
+    after = open(os.path.join(out, "manifest.json")).read()
+    siblings = sorted(os.listdir(WORK))
+    return {"first": first, "cancelled": job.cancelled, "error": str(job.error) if job.error else None,
+            "stages": stages, "unchanged": before == after, "siblings": siblings}
+
+
+def case_missing(args):
+    """A world whose image file is gone: a clear error, the earlier bake kept."""
+    empty_scene()
+    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(64, 32))
+    world = image_world(path)
+    out = os.path.join(WORK, "out")
+    first = bake(out)
+    before = open(os.path.join(out, "manifest.json")).read()
+    os.remove(path)
+    img = world.node_tree.nodes["Environment Texture"].image
+    img.filepath = os.path.join(WORK, "gone.exr")
+    img.reload()
+    second = bake(out, force=True)
+    after = open(os.path.join(out, "manifest.json")).read()
+    return {"first": first, "second": second, "unchanged": before == after}
+
+
+def case_save_blend(args):
+    """Saves a .blend whose world is the direction field, for the batch test."""
+    empty_scene()
+    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(64, 32))
+    image_world(path, strength=2.0)
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(WORK, "scene.blend"))
+    return {"saved": True}
+
+
+CASES = {name[5:]: fn for name, fn in list(globals().items()) if name.startswith("case_")}
+
+if __name__ == "__main__":
+    argv = sys.argv[sys.argv.index("--") + 1:]
+    case, WORK = argv[0], argv[1]
+    kv = dict(a.split("=", 1) for a in argv[2:])
+    os.makedirs(WORK, exist_ok=True)
+    result = CASES[case](kv)
+    with open(os.path.join(WORK, "result.json"), "w") as f:
+        json.dump(result, f, indent=1)

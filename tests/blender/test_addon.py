@@ -1,0 +1,154 @@
+"""The Blender add-on in headless Blender (see cases.py for the scenes)."""
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, manifest, read, run_blender, sample_cross
+
+FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
+SCRIPT = os.path.join(ROOT, "blender_scripts", "bake_world.py")
+CLI = os.environ.get("IBLBAKE_CLI", os.path.join(ROOT, "build", "native", "iblbake"))
+
+
+def bake_world(*args):
+    return run_blender(["--python", SCRIPT, "--", *args])
+
+
+def test_hdri_world_bakes_like_the_cli(tmp_path):
+    opts = ["--face-size", "32", "--irradiance-size", "8", "--lut-size", "32"]
+    p = bake_world("--hdri", FOREST, "--out", str(tmp_path / "addon"), *opts)
+    assert p.returncode == 0, p.stdout + p.stderr
+    env = dict(os.environ, IBLBAKE_CACHE_DIR=str(tmp_path / "cache"))
+    subprocess.run([CLI, "bake", FOREST, "-o", str(tmp_path / "cli"), *opts, "-q"], check=True, env=env)
+    a, c = manifest(tmp_path / "addon"), manifest(tmp_path / "cli")
+    assert a["blender"]["path"] == "environment_texture"
+    assert a["source"]["sha256"] == c["source"]["sha256"]
+    assert [e["file"] for e in a["specular"]] == [e["file"] for e in c["specular"]]
+    for name in ["irradiance.exr", "brdf_lut.exr"] + [e["file"] for e in c["specular"]]:
+        x, y = read(tmp_path / "addon" / name), read(tmp_path / "cli" / name)
+        np.testing.assert_allclose(x, y, rtol=1e-3, atol=1e-5, err_msg=name)
+    np.testing.assert_allclose(a["sh9"], c["sh9"], rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("rotation,strength,mapping_type", [
+    ("0,0,0", 1.0, "POINT"),
+    ("10,-20,30", 2.5, "POINT"),
+    ("0,15,-60", 1.0, "TEXTURE"),
+])
+def test_specular_mip0_matches_cycles_along_the_axes(case, rotation, strength, mapping_type):
+    """A world whose colour codes its direction, baked by the add-on, against
+    Cycles' own renders of it along +-X, +-Y, +-Z and two oblique directions:
+    orientation, the Mapping node and Strength as Cycles applies them."""
+    res, work = case("orientation", rotation=rotation, strength=strength, mapping_type=mapping_type)
+    assert res["error"] == "", res
+    m = manifest(work / "out")
+    assert m["blender"]["path"] == "environment_texture"
+    assert m["blender"]["strength"] == pytest.approx(strength)
+    if rotation != "0,0,0":
+        assert m["blender"]["mapping"]["type"] == mapping_type
+    mip0 = read(work / "out" / "specular_0.exr")
+    for d, seen in zip(res["probes"], res["cycles"]):
+        baked = sample_cross(mip0, d)
+        np.testing.assert_allclose(baked, seen, atol=0.01 * strength, err_msg="direction %s" % (d,))
+
+
+def test_sky_texture_world_is_rendered_by_cycles_then_baked(case):
+    res, work = case("sky")
+    assert res["error"] == "", res
+    m = manifest(work / "out")
+    assert m["blender"]["path"] == "cycles_render"
+    assert "ShaderNodeTexSky" in m["blender"]["why"]
+    assert m["blender"]["render"]["width"] == 256
+    mip0 = read(work / "out" / "specular_0.exr")
+    for d, seen in zip(res["probes"], res["cycles"]):
+        np.testing.assert_allclose(sample_cross(mip0, d), seen, rtol=0.05, atol=1e-3, err_msg=str(d))
+    irr = read(work / "out" / "irradiance.exr")
+    assert np.isfinite(irr).all() and irr.max() > 0
+
+
+def test_plain_colour_world_is_baked_in_closed_form(case):
+    res, work = case("color")
+    assert res["error"] == "", res
+    m = manifest(work / "out")
+    assert m["blender"]["path"] == "plain_colour"
+    assert "constant" in m["timings"] and "specular" not in m["timings"]
+    expect = np.array([0.2, 0.4, 0.8]) * 1.5
+    n = m["irradiance"]["face_size"]
+    irr = read(work / "out" / "irradiance.exr")
+    np.testing.assert_allclose(irr[n:2 * n, :], np.broadcast_to(expect, irr[n:2 * n, :].shape), rtol=1e-3)
+    np.testing.assert_allclose(np.array(m["sh9"])[:, 0], expect * 2 * np.sqrt(np.pi), rtol=1e-6)
+    for level in m["specular"]:
+        spec = read(work / "out" / level["file"])
+        for d in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]:
+            np.testing.assert_allclose(sample_cross(spec, d), expect, rtol=1e-3, err_msg=level["file"])
+
+
+def test_unchanged_world_is_not_baked_again(case):
+    res, work = case("unchanged")
+    assert res["first"]["status"].startswith("Baked"), res
+    assert "unchanged" in res["second"]["status"] and res["second"]["result"] == ["FINISHED"]
+    assert res["untouched"]
+    assert res["third"]["status"].startswith("Baked")
+    assert res["forced"]["status"].startswith("Baked")
+
+
+def test_materials_decide_what_is_baked(case):
+    res, work = case("needs")
+    for key, r in res.items():
+        assert r["error"] == "", (key, r)
+    m = manifest(work / "diffuse_only")
+    assert m["specular"] == [] and m["brdf_lut"] is None and m["irradiance"] is not None
+    whys = {s["what"]: s["why"] for s in m["skipped"]}
+    assert "glossy" in whys["specular"] and "glossy" in whys["brdf_lut"]
+    assert m["blender"]["needs"]["specular"] is False
+
+    m = manifest(work / "principled")  # roughness 0.3 of r_m = m / 5: levels 1 and 2
+    assert [e["level"] for e in m["specular"]] == [1, 2]
+    assert sorted(os.listdir(work / "principled")) == [
+        "brdf_lut.exr", "irradiance.exr", "manifest.json", "specular_1.exr", "specular_2.exr"]
+    assert any(s["what"] == "specular levels 0-0, 3-5" for s in m["skipped"])
+
+    m = manifest(work / "metal")  # fully metallic, textured roughness: no diffuse, every level
+    assert m["irradiance"] is None and [e["level"] for e in m["specular"]] == [0, 1, 2, 3, 4, 5]
+    m = manifest(work / "metal_all")  # skipping switched off
+    assert m["irradiance"] is not None and m["blender"]["auto_skip"] is False
+
+
+def test_cancelled_bake_keeps_the_earlier_one(case):
+    res, work = case("cancel")
+    assert res["first"]["error"] == ""
+    assert res["cancelled"] and res["error"] is None
+    assert "specular" in res["stages"] and "brdf_lut" not in res["stages"]
+    assert res["unchanged"]
+    assert res["siblings"] == ["field.exr", "out"]  # no staging folder left behind
+
+
+def test_missing_image_file_is_a_clear_error_and_keeps_the_earlier_bake(case, tmp_path):
+    res, work = case("missing")
+    assert res["first"]["error"] == ""
+    assert res["second"]["result"] == ["CANCELLED"]
+    assert "no file at" in res["second"]["error"] and "gone.exr" in res["second"]["error"]
+    assert res["unchanged"]
+    p = bake_world("--hdri", str(tmp_path / "nothing.exr"), "--out", str(tmp_path / "x"))
+    assert p.returncode == 1 and "no image file at" in p.stderr
+    assert not (tmp_path / "x").exists()
+
+
+def test_batch_over_blend_files_and_images(case, tmp_path):
+    _, work = case("save_blend")
+    blend = str(work / "scene.blend")
+    out = tmp_path / "batch"
+    p = bake_world("--batch", blend, FOREST, str(tmp_path / "missing.exr"), "--out", str(out),
+                   "--face-size", "16", "--lut-size", "16")
+    assert p.returncode == 1, p.stdout + p.stderr
+    assert "missing.exr" in p.stderr
+    assert manifest(out / "scene")["blender"]["strength"] == 2.0
+    assert manifest(out / "forest")["blender"]["image"]["name"] == "forest.exr"
+    assert not (out / "missing").exists()
+    # The open-file form: blender -b file.blend --python bake_world.py -- --out DIR
+    p = run_blender([blend, "--python", SCRIPT, "--", "--out", str(tmp_path / "one"), "--face-size", "16"])
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert manifest(tmp_path / "one")["blender"]["blend_file"] == blend
