@@ -13,16 +13,19 @@ bl_info = {
     "category": "Lighting",
 }
 
-if "bpy" in locals():  # F8 / script reload: re-import the submodules
-    import importlib
-    for _m in (properties, preferences, world_reader, scene_needs, operators, panel):  # noqa: F821
-        importlib.reload(_m)
+try:
+    import bpy
+except ImportError:  # iblbake.core used outside Blender (tests, pipelines): nothing to register
+    bpy = None
 
-import bpy  # noqa: E402
+if bpy is not None:
+    if "operators" in locals():  # F8 / script reload: re-import the submodules
+        import importlib
+        for _m in (properties, preferences, world_reader, scene_needs, operators, panel):  # noqa: F821
+            importlib.reload(_m)
+    from . import operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
 
-from . import operators, panel, preferences, properties, scene_needs, world_reader  # noqa: E402,F401
-
-_CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
+    _CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
 
 
 def register():

@@ -6,7 +6,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from conftest import ROOT, manifest, read, run_blender, sample_cross
+from conftest import BLENDER, ROOT, manifest, read, run_blender, sample_cross
 
 FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
 SCRIPT = os.path.join(ROOT, "blender_scripts", "bake_world.py")
@@ -152,3 +152,34 @@ def test_batch_over_blend_files_and_images(case, tmp_path):
     p = run_blender([blend, "--python", SCRIPT, "--", "--out", str(tmp_path / "one"), "--face-size", "16"])
     assert p.returncode == 0, p.stdout + p.stderr
     assert manifest(tmp_path / "one")["blender"]["blend_file"] == blend
+
+
+def test_packaged_zip_installs_and_bakes_with_its_own_module(tmp_path):
+    """The zip made by the build (`addon_zip`) installs through Preferences >
+    Add-ons > Install and bakes with the module inside it (no checkout on the path)."""
+    zips = sorted((p for p in os.listdir(os.path.join(ROOT, "build")) if p.startswith("iblbake-addon-")))
+    assert zips, "build the addon_zip target first"
+    script = tmp_path / "install.py"
+    script.write_text(
+        "import bpy, addon_utils, sys\n"
+        "bpy.ops.preferences.addon_install(filepath=%r)\n"
+        "mod = addon_utils.enable('iblbake', default_set=True)\n"
+        "from iblbake.core import native\n"
+        "print('MODULE=' + native.load().__file__)\n"
+        "prefs = bpy.context.preferences.addons['iblbake'].preferences\n"
+        "prefs.default_output_dir = %r\n"
+        "prefs.face_size = 8\n"
+        "bpy.context.scene.world.node_tree.nodes['Background'].inputs['Color'].default_value = (1, 0.5, 0.25, 1)\n"
+        "print(bpy.ops.iblbake.bake())\n" % (os.path.join(ROOT, "build", zips[-1]), str(tmp_path / "out" / "{world}")))
+    env = {k: v for k, v in os.environ.items() if k not in ("IBLBAKE_CORE_DIR", "PYTHONPATH")}
+    env["BLENDER_USER_SCRIPTS"] = str(tmp_path / "scripts")
+    env["IBLBAKE_CACHE_DIR"] = str(tmp_path / "cache")
+    p = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(script)],
+                       capture_output=True, text=True, env=env, timeout=300)
+    assert p.returncode == 0, p.stdout + p.stderr
+    module = [line for line in p.stdout.splitlines() if line.startswith("MODULE=")][0][7:]
+    assert module.startswith(str(tmp_path / "scripts")), module
+    m = manifest(tmp_path / "out" / "World")
+    assert m["blender"]["path"] == "plain_colour" and m["options"]["face_size"] == 8
+    # The default cube (Principled, roughness 0.5) reads levels 1-2 of 4.
+    assert [e["level"] for e in m["specular"]] == [1, 2]

@@ -1,0 +1,170 @@
+"""The add-on's bpy-free core (addon/iblbake/core), without Blender."""
+import json
+import math
+import os
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "addon"))
+import iblbake_core as ib  # noqa: E402
+from iblbake.core import needs as N  # noqa: E402
+from iblbake.core import pipeline  # noqa: E402
+from iblbake.core.job import BakeJob  # noqa: E402
+from iblbake.core.settings import BakeSettings  # noqa: E402
+from iblbake.core.world import COLOR, IMAGE, Mapping, WorldSource, euler_xyz_matrix, prepare_pixels, srgb_to_linear  # noqa: E402,E501
+
+
+def test_levels_cover_the_roughness_an_engine_reads():
+    # 9 levels, r_m = m / 8: lod = 8 r, blended between floor and ceil.
+    assert N.levels_for_roughness((0.5, 0.5), 9) == (4, 4)
+    assert N.levels_for_roughness((0.3, 0.55), 9) == (2, 5)
+    assert N.levels_for_roughness((0.0, 1.0), 9) == (0, 8)
+    assert N.levels_for_roughness((0.2, 0.2), 6) == (1, 1)
+    assert N.levels_for_roughness((0.3, 0.3), 6) == (1, 2)
+    assert N.levels_for_roughness((-1, 3), 6) == (0, 5)
+    assert N.levels_for_roughness((0.4, 0.4), 1) == (0, 0)
+
+
+def test_principled_rules():
+    kinds = lambda lobes: sorted(lb.kind for lb in lobes)  # noqa: E731
+    assert kinds(N.principled_lobes("m", (0.5, 0.5), (0, 0), (0.5, 0.5))) == ["diffuse", "glossy"]
+    assert kinds(N.principled_lobes("m", (0.5, 0.5), (1, 1), (0.5, 0.5))) == ["glossy"]       # metal
+    assert kinds(N.principled_lobes("m", (0.5, 0.5), (0, 0), (0, 0))) == ["diffuse"]         # no specular
+    assert kinds(N.principled_lobes("m", (0.5, 0.5), (0, 1), (0, 0))) == ["diffuse", "glossy"]  # textured metallic
+    coat = N.principled_lobes("m", (0.8, 0.8), (1, 1), (0.5, 0.5), coat=(1, 1), coat_roughness=(0.05, 0.05))
+    assert sorted(lb.roughness for lb in coat if lb.kind == "glossy") == [(0.05, 0.05), (0.8, 0.8)]
+    assert N.node_lobes("ShaderNodeEmission", "e") == []
+    assert [lb.kind for lb in N.node_lobes("ShaderNodeBsdfDiffuse", "d")] == ["diffuse"]
+    unknown = N.node_lobes("ShaderNodeSomethingNew", "x")
+    assert {lb.kind for lb in unknown} == {"diffuse", "glossy"} and all(lb.roughness == N.FULL for lb in unknown)
+
+
+def test_needs_from_lobes():
+    n = N.needs_from_lobes([N.Lobe("diffuse")], 9, objects=1)
+    assert (n.irradiance, n.specular, n.lut) == (True, False, False)
+    assert "glossy" in n.reasons["specular"]
+    n = N.needs_from_lobes([N.Lobe("glossy", (0.2, 0.3)), N.Lobe("glossy", (0.6, 0.6))], 9, objects=2)
+    assert (n.irradiance, n.specular, n.levels, n.roughness) == (False, True, (1, 5), (0.2, 0.6))
+    assert "specular_levels" in n.reasons
+    assert N.needs_from_lobes([], 9, objects=0).analysed is False  # nothing to inspect: bake everything
+
+
+def test_native_options_apply_needs_only_with_auto_skip():
+    needs = N.needs_from_lobes([N.Lobe("glossy", (0.5, 0.5))], 9, objects=1)
+    s = BakeSettings(out_dir="x")
+    o = pipeline.native_options(s, needs)
+    assert o["irradiance"] is False and o["specular"] and (o["first_level"], o["last_level"]) == (4, 4)
+    assert "irradiance" in o["skip_reasons"] and "specular_levels" in o["skip_reasons"]
+    s.auto_skip = False
+    o = pipeline.native_options(s, needs)
+    assert o["irradiance"] and "first_level" not in o and "skip_reasons" not in o
+
+
+def test_euler_matches_blender_convention():
+    # Blender's XYZ Euler: rotate about X, then Y, then Z (matrix Rz Ry Rx).
+    rz = euler_xyz_matrix((0, 0, math.pi / 2))
+    np.testing.assert_allclose(rz @ [1, 0, 0], [0, 1, 0], atol=1e-12)
+    m = euler_xyz_matrix((0.3, -0.7, 1.1))
+    np.testing.assert_allclose(m @ m.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(m, euler_xyz_matrix((0, 0, 1.1)) @ euler_xyz_matrix((0, -0.7, 0))
+                               @ euler_xyz_matrix((0.3, 0, 0)), atol=1e-12)
+
+
+def test_mapping_types_are_blenders_formulas():
+    d = np.array([0.3, -0.5, 0.8])
+    loc, rot, scale = (0.1, 0.2, -0.3), (0.2, 0.4, -0.6), (2.0, 0.5, 1.5)
+    r = euler_xyz_matrix(rot)
+    for kind, expect in [("POINT", r @ (d * scale) + loc), ("VECTOR", r @ (d * scale)),
+                         ("TEXTURE", (r.T @ (d - loc)) / scale), ("NORMAL", r @ (d / scale))]:
+        a, b = Mapping(kind, loc, rot, scale).affine()
+        np.testing.assert_allclose(a @ d + b, expect, atol=1e-12, err_msg=kind)
+    assert Mapping().is_identity() and not Mapping(rotation=(0, 0, 0.1)).is_identity()
+
+
+def test_prepare_pixels_flips_linearises_rotates_and_scales():
+    h, w = 8, 16
+    rng = np.random.default_rng(1)
+    top_down = rng.random((h, w, 3)).astype(np.float32)
+    rgba = np.ones((h, w, 4), np.float32)
+    rgba[..., :3] = top_down[::-1]  # Blender stores rows bottom-up
+    src = WorldSource(IMAGE, is_float=True, strength=2.0)
+    np.testing.assert_allclose(prepare_pixels(src, rgba.reshape(-1), w, h), 2 * top_down, rtol=1e-6)
+    byte = WorldSource(IMAGE, is_float=False, colorspace="sRGB")
+    np.testing.assert_allclose(prepare_pixels(byte, rgba.reshape(-1), w, h), srgb_to_linear(top_down), rtol=1e-6)
+    assert srgb_to_linear(np.float32([0.5]))[0] == pytest.approx(0.21404, abs=1e-5)
+    turned = WorldSource(IMAGE, mapping=Mapping(rotation=(0, 0, math.pi / 2)))
+    out = prepare_pixels(turned, rgba.reshape(-1), w, h, remap=ib.remap_latlong)
+    np.testing.assert_allclose(out, np.roll(top_down, w // 4, axis=1), atol=1e-5)
+    odd = WorldSource(IMAGE, is_float=False, colorspace="Filmic Log")
+    with pytest.raises(ValueError):
+        odd.check_colorspace()
+
+
+def small(tmp_path, **kw):
+    kw.setdefault("out_dir", str(tmp_path / "out"))
+    return BakeSettings(face_size=8, irradiance_size=4, lut_size=8, lut_cache_dir=str(tmp_path / "cache"), **kw)
+
+
+def sky(h=16, w=32):
+    rng = np.random.default_rng(3)
+    return (0.5 + rng.random((h, w, 3))).astype(np.float32)
+
+
+def test_pipeline_skips_an_unchanged_world_and_rebakes_a_changed_one(tmp_path):
+    src, px = WorldSource(IMAGE, world="w"), sky()
+    first = pipeline.bake(src, px, small(tmp_path))
+    assert first.status == "baked" and first.manifest["blender"]["content_hash"] == first.content_hash
+    again = pipeline.bake(src, px.copy(), small(tmp_path))
+    assert again.status == "unchanged" and again.content_hash == first.content_hash
+    assert "unchanged" in again.summary()
+    changed = px.copy()
+    changed[3, 4, 1] += 0.25
+    assert pipeline.bake(src, changed, small(tmp_path)).status == "baked"
+    assert pipeline.bake(src, changed, small(tmp_path, lut_model="multiscatter")).status == "baked"
+    assert pipeline.bake(src, changed, small(tmp_path, lut_model="multiscatter", force=True)).status == "baked"
+    # A damaged folder (a file gone) is baked again.
+    os.remove(tmp_path / "out" / "specular_1.exr")
+    assert pipeline.bake(src, changed, small(tmp_path, lut_model="multiscatter")).status == "baked"
+
+
+def test_pipeline_plain_colour_and_errors(tmp_path):
+    rep = pipeline.bake(WorldSource(COLOR, color=(0.5, 1.0, 2.0)), None, small(tmp_path))
+    m = json.load(open(tmp_path / "out" / "manifest.json"))
+    assert rep.status == "baked" and m["blender"]["path"] == "plain_colour" and "constant" in m["timings"]
+    with pytest.raises(pipeline.BakeError, match="output folder"):
+        pipeline.bake(WorldSource(IMAGE), sky(), BakeSettings())
+    with pytest.raises(pipeline.BakeError, match="float32"):
+        pipeline.bake(WorldSource(IMAGE), sky().astype(np.float64), small(tmp_path, force=True))
+    (tmp_path / "notabake").mkdir()
+    (tmp_path / "notabake" / "precious.txt").write_text("keep me")
+    with pytest.raises(pipeline.BakeError):
+        pipeline.bake(WorldSource(IMAGE), sky(), small(tmp_path, out_dir=str(tmp_path / "notabake")))
+    assert (tmp_path / "notabake" / "precious.txt").read_text() == "keep me"
+
+
+def test_job_cancels_between_stages_and_keeps_the_earlier_bake(tmp_path):
+    src = WorldSource(IMAGE)
+    pipeline.bake(src, sky(), small(tmp_path))
+    before = (tmp_path / "out" / "manifest.json").read_text()
+    seen = []
+    gate = threading.Event()
+
+    def work(progress):
+        def watch(stage, f):
+            seen.append(stage)
+            if stage == "irradiance":
+                job.cancel()
+            return progress(stage, f)
+        gate.wait(5)
+        return pipeline.bake(src, sky() * 2, small(tmp_path), progress=watch)
+
+    job = BakeJob(work).start()
+    gate.set()
+    assert job.wait(60)
+    assert job.cancelled and job.error is None and job.result is None
+    assert seen[-1] == "irradiance"
+    assert (tmp_path / "out" / "manifest.json").read_text() == before
+    assert sorted(os.listdir(tmp_path)) == ["cache", "out"]
