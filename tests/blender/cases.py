@@ -45,6 +45,22 @@ def save_exr(path, rgb):
     return str(path)
 
 
+def save_png_srgb(path, rgb):
+    """Writes a (H, W, 3) linear array as an 8-bit sRGB PNG through Blender
+    (a byte image's pixels are its stored, sRGB-encoded values)."""
+    h, w, _ = rgb.shape
+    enc = np.where(rgb <= 0.0031308, rgb * 12.92, 1.055 * np.power(np.maximum(rgb, 0), 1 / 2.4) - 0.055)
+    img = bpy.data.images.new(Path(path).stem, w, h, alpha=True, float_buffer=False)
+    rgba = np.ones((h, w, 4), np.float32)
+    rgba[..., :3] = np.clip(enc, 0, 1)
+    img.pixels.foreach_set(rgba[::-1].reshape(-1))
+    img.filepath_raw = str(path)
+    img.file_format = "PNG"
+    img.save()
+    bpy.data.images.remove(img)
+    return str(path)
+
+
 def image_world(path, strength=1.0, rotation=(0, 0, 0), mapping_type="POINT"):
     world = bpy.data.worlds.new("image world")
     world.use_nodes = True
@@ -130,7 +146,10 @@ def case_orientation(args):
     """A direction-coded world (optionally through a Mapping node and a
     Strength) baked by the add-on, and rendered by Cycles along PROBES."""
     empty_scene(face_size=int(args.get("face", 64)))
-    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(512, 256))
+    if args.get("format") == "png":
+        path = save_png_srgb(os.path.join(WORK, "field.png"), direction_field(512, 256))
+    else:
+        path = save_exr(os.path.join(WORK, "field.exr"), direction_field(512, 256))
     rot = tuple(float(a) for a in args.get("rotation", "0,0,0").split(","))
     image_world(path, float(args.get("strength", 1.0)), rot, args.get("mapping_type", "POINT"))
     res = bake(os.path.join(WORK, "out"), bake_lut=False, mip_count=2)

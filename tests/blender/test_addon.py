@@ -33,19 +33,22 @@ def test_hdri_world_bakes_like_the_cli(tmp_path):
     np.testing.assert_allclose(a["sh9"], c["sh9"], rtol=1e-5, atol=1e-7)
 
 
-@pytest.mark.parametrize("rotation,strength,mapping_type", [
-    ("0,0,0", 1.0, "POINT"),
-    ("10,-20,30", 2.5, "POINT"),
-    ("0,15,-60", 1.0, "TEXTURE"),
+@pytest.mark.parametrize("rotation,strength,mapping_type,fmt", [
+    ("0,0,0", 1.0, "POINT", "exr"),
+    ("10,-20,30", 2.5, "POINT", "exr"),
+    ("0,15,-60", 1.0, "TEXTURE", "exr"),
+    ("0,0,0", 1.0, "POINT", "png"),
 ])
-def test_specular_mip0_matches_cycles_along_the_axes(case, rotation, strength, mapping_type):
+def test_specular_mip0_matches_cycles_along_the_axes(case, rotation, strength, mapping_type, fmt):
     """A world whose colour codes its direction, baked by the add-on, against
     Cycles' own renders of it along +-X, +-Y, +-Z and two oblique directions:
-    orientation, the Mapping node and Strength as Cycles applies them."""
-    res, work = case("orientation", rotation=rotation, strength=strength, mapping_type=mapping_type)
+    orientation, the Mapping node, Strength and an 8-bit sRGB image's
+    decoding as Cycles applies them."""
+    res, work = case("orientation", rotation=rotation, strength=strength, mapping_type=mapping_type, format=fmt)
     assert res["error"] == "", res
     m = manifest(work / "out")
     assert m["blender"]["path"] == "environment_texture"
+    assert m["blender"]["image"]["linearised_from_srgb"] is (fmt == "png")
     assert m["blender"]["strength"] == pytest.approx(strength)
     if rotation != "0,0,0":
         assert m["blender"]["mapping"]["type"] == mapping_type
@@ -93,6 +96,7 @@ def test_unchanged_world_is_not_baked_again(case):
     assert res["untouched"]
     assert res["third"]["status"].startswith("Baked")
     assert res["forced"]["status"].startswith("Baked")
+    assert manifest(work / "out")["brdf_lut"]["from_cache"] is True  # the LUT is made once, then reused
 
 
 def test_materials_decide_what_is_baked(case):
