@@ -81,6 +81,14 @@ def record(scene, report=None, error=None):
     props.last_hash = report.content_hash
 
 
+def _print_stages(stage, fraction, _last=[None]):
+    """Headless progress: one line per stage."""
+    if stage != _last[0]:
+        _last[0] = stage
+        print("iblbake: %s (%d%%)" % (stage, int(100 * fraction)), flush=True)
+    return True
+
+
 class IBLBAKE_OT_bake(bpy.types.Operator):
     """Bake the world's image-based lighting (irradiance, prefiltered specular, BRDF LUT) into the output folder"""
     bl_idname = "iblbake.bake"
@@ -101,9 +109,10 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
 
     def execute(self, context):
         scene = context.scene
+        progress = _print_stages if bpy.app.background else None
         try:
             settings, needs, source, pixels, extra = prepare(context, scene)
-            report = pipeline.bake(source, pixels, settings, needs, extra=extra)
+            report = pipeline.bake(source, pixels, settings, needs, progress, extra)
         except (pipeline.BakeError, world_reader.WorldError) as e:
             return self._fail(scene, e)
         except native.load().Cancelled:
