@@ -32,9 +32,11 @@ def register():
     for cls in _CLASSES:
         bpy.utils.register_class(cls)
     properties.register_props()
+    panel.register_handlers()
 
 
 def unregister():
+    panel.unregister_handlers()
     properties.unregister_props()
     for cls in reversed(_CLASSES):
         bpy.utils.unregister_class(cls)

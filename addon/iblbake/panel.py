@@ -1,5 +1,6 @@
 """World Properties > Image-Based Lighting: what will be baked, and the button."""
 import bpy
+from bpy.app.handlers import persistent
 
 from . import operators, preferences, world_reader
 from .core.world import COLOR, IMAGE, RENDER
@@ -23,7 +24,25 @@ def _world_line(scene):
     return "RENDER_STILL", "Cycles render: %s" % src.why
 
 
+# The scene analysis, kept between redraws until the scene changes (a redraw
+# must not walk every object of a large scene).
+_needs_cache = {}
+
+
+@persistent
+def _forget_needs(*_args):
+    _needs_cache.clear()
+
+
 def _needs_lines(context, scene):
+    key = (scene.name, scene.iblbake.use_scene_options, scene.iblbake.face_size, scene.iblbake.mip_count,
+           scene.iblbake.output_dir)
+    if key not in _needs_cache:
+        _needs_cache[key] = _compute_needs_lines(context, scene)
+    return _needs_cache[key]
+
+
+def _compute_needs_lines(context, scene):
     try:
         settings = operators.gather_settings(context, scene)
     except Exception as e:  # e.g. no folder yet: still show what the scene needs
@@ -100,3 +119,16 @@ class IBLBAKE_PT_world(bpy.types.Panel):
 
 
 classes = (IBLBAKE_PT_world,)
+HANDLERS = ((bpy.app.handlers.depsgraph_update_post, _forget_needs), (bpy.app.handlers.load_post, _forget_needs))
+
+
+def register_handlers():
+    for handlers, fn in HANDLERS:
+        handlers.append(fn)
+
+
+def unregister_handlers():
+    for handlers, fn in HANDLERS:
+        if fn in handlers:
+            handlers.remove(fn)
+    _needs_cache.clear()
