@@ -21,23 +21,46 @@ import bpy
 BLEND_SUFFIXES = (".blend",)
 
 
+class Usage(Exception):
+    """A wrong command line (exit code 1, like every other failure)."""
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise Usage(message)
+
+
+def positive(text):
+    v = int(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError("must be at least 1, got %s" % text)
+    return v
+
+
+def count(text):
+    v = int(text)
+    if v < 0:
+        raise argparse.ArgumentTypeError("must be 0 (automatic) or more, got %s" % text)
+    return v
+
+
 def parse_args(argv):
-    p = argparse.ArgumentParser(prog="bake_world.py", description=__doc__.split("\n\n")[0])
+    p = Parser(prog="bake_world.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", required=True, help="output folder (a batch: the parent of one folder per input)")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--hdri", help="bake this image as the world instead of the open file's world")
     src.add_argument("--batch", nargs="+", metavar="FILE", help=".blend files and/or images, one bake each")
     p.add_argument("--scene", help="scene to bake (default: the active one)")
-    p.add_argument("--face-size", type=int, help="specular mip 0 face size (default 256)")
-    p.add_argument("--irradiance-size", type=int, help="irradiance face size (default 32)")
-    p.add_argument("--mips", type=int, help="specular levels (default 0: full chain)")
-    p.add_argument("--lut-size", type=int, help="BRDF LUT size (default 512)")
+    p.add_argument("--face-size", type=positive, help="specular mip 0 face size (default 256)")
+    p.add_argument("--irradiance-size", type=positive, help="irradiance face size (default 32)")
+    p.add_argument("--mips", type=count, help="specular levels (default 0: full chain)")
+    p.add_argument("--lut-size", type=positive, help="BRDF LUT size (default 512)")
     p.add_argument("--lut-model", choices=["karis", "height-correlated", "multiscatter"])
     p.add_argument("--format", default=None, help="exr, png or exr,png (default exr)")
     p.add_argument("--png-encoding", choices=["srgb", "rgbm"])
     p.add_argument("--exposure", type=float, help="PNG exposure in stops")
-    p.add_argument("--render-width", type=int, help="Cycles lat-long width for procedural worlds (default 1024)")
-    p.add_argument("--render-samples", type=int, help="Cycles samples for procedural worlds (default 16)")
+    p.add_argument("--render-width", type=positive, help="Cycles lat-long width for procedural worlds (default 1024)")
+    p.add_argument("--render-samples", type=positive, help="Cycles samples for procedural worlds (default 16)")
     p.add_argument("--strength", type=float, default=1.0, help="--hdri/--batch images: Background Strength")
     p.add_argument("--rotation-z", type=float, default=0.0, help="--hdri/--batch images: Mapping rotation, degrees")
     p.add_argument("--no-irradiance", action="store_true")
@@ -57,9 +80,10 @@ def load_addon():
         sys.path.insert(0, str(addon_dir))
         import iblbake
         iblbake.register()
-    else:
+    else:  # an installed add-on ("iblbake") or 4.2+ extension ("bl_ext.<repo>.iblbake")
         import addon_utils
-        if addon_utils.enable("iblbake", default_set=True) is None:
+        names = [m.__name__ for m in addon_utils.modules() if m.__name__.split(".")[-1] == "iblbake"]
+        if not names or addon_utils.enable(names[0], default_set=True) is None:
             raise RuntimeError("the iblbake add-on is neither in this checkout nor installed")
 
 
@@ -122,13 +146,25 @@ def bake_scene(args, out_dir: str, image=None):
     print("iblbake: %s" % scene.iblbake.last_status, flush=True)
 
 
+def batch_folders(items, out):
+    """One output folder per input, named after its stem; two inputs of one
+    name would overwrite each other, so that is refused up front."""
+    folders = {}
+    for item in items:
+        stem = Path(item).stem
+        if stem in folders:
+            raise Usage("two inputs would bake into %s: %s and %s (rename one, or bake them separately)"
+                        % (os.path.join(out, stem), folders[stem], item))
+        folders[stem] = item
+    return [(item, os.path.join(out, stem)) for stem, item in folders.items()]
+
+
 def main(argv):
     args = parse_args(argv)
     load_addon()
     failures = []
     if args.batch:
-        for item in args.batch:
-            out = os.path.join(args.out, Path(item).stem)
+        for item, out in batch_folders(args.batch, args.out):
             start = time.perf_counter()
             try:
                 if item.lower().endswith(BLEND_SUFFIXES):
@@ -155,4 +191,13 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    main(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
+    try:
+        main(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
+    except SystemExit:
+        raise
+    except Usage as e:
+        print("iblbake: error: %s (see --help)" % e, file=sys.stderr, flush=True)
+        sys.exit(1)
+    except BaseException as e:  # a missing add-on or module, anything: never exit 0 on a failure
+        print("iblbake: error: %s: %s" % (type(e).__name__, e), file=sys.stderr, flush=True)
+        sys.exit(1)

@@ -21,22 +21,28 @@ except ImportError:  # iblbake.core used outside Blender (tests, pipelines): not
 if bpy is not None:
     if "operators" in locals():  # F8 / script reload: re-import the submodules
         import importlib
-        for _m in (properties, preferences, world_reader, scene_needs, operators, panel):  # noqa: F821
+        for _m in (core.settings, core.needs, core.world, core.native, core.pipeline, core.job,  # noqa: F821
+                   properties, preferences, world_reader, scene_needs, operators, panel):  # noqa: F821
             importlib.reload(_m)
+    from . import core  # noqa: F401
     from . import operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
 
     _CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
+    _HANDLERS = operators.HANDLERS + panel.HANDLERS
 
 
 def register():
     for cls in _CLASSES:
         bpy.utils.register_class(cls)
     properties.register_props()
-    panel.register_handlers()
+    for handlers, fn in _HANDLERS:
+        handlers.append(fn)
 
 
 def unregister():
-    panel.unregister_handlers()
+    for handlers, fn in reversed(_HANDLERS):
+        if fn in handlers:
+            handlers.remove(fn)
     properties.unregister_props()
     for cls in reversed(_CLASSES):
         bpy.utils.unregister_class(cls)

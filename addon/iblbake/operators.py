@@ -6,6 +6,7 @@ import os
 import re
 
 import bpy
+from bpy.app.handlers import persistent
 
 from . import preferences, scene_needs, world_reader
 from .core import native, pipeline
@@ -18,7 +19,9 @@ OPTION_NAMES = ("face_size", "irradiance_size", "mip_count", "lut_size", "lut_mo
 
 
 def _safe(name: str) -> str:
-    return re.sub(r"[^\w.-]+", "_", name).strip("_") or "untitled"
+    """A name as one path component: never empty, never "." or ".."."""
+    s = re.sub(r"[^\w.-]+", "_", name).strip("_")
+    return "untitled" if s.strip(".") == "" else s
 
 
 def resolve_output_dir(scene, template: str) -> str:
@@ -29,7 +32,7 @@ def resolve_output_dir(scene, template: str) -> str:
     if text.startswith("//") and not blend:
         raise pipeline.BakeError("the output folder %r is relative to the .blend file, which is not saved yet: "
                                  "save it or choose an absolute folder" % template)
-    return os.path.abspath(bpy.path.abspath(text))
+    return os.path.abspath(os.path.expanduser(bpy.path.abspath(text)))
 
 
 def gather_settings(context, scene) -> BakeSettings:
@@ -117,6 +120,8 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
             return self._fail(scene, e)
         except native.load().Cancelled:
             return self._fail(scene, "cancelled; the earlier bake is unchanged")
+        except Exception as e:  # anything else still reaches the user as a message
+            return self._fail(scene, "%s: %s" % (type(e).__name__, e))
         record(scene, report)
         self.report({"INFO"}, report.summary())
         return {"FINISHED"}
@@ -127,7 +132,10 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
             settings, needs, source, pixels, extra = prepare(context, scene)
         except (pipeline.BakeError, world_reader.WorldError) as e:
             return self._fail(scene, e)
+        except Exception as e:
+            return self._fail(scene, "%s: %s" % (type(e).__name__, e))
         self._scene_name = scene.name
+        self._workspace = context.workspace
         IBLBAKE_OT_bake._job = BakeJob(
             lambda progress: pipeline.bake(source, pixels, settings, needs, progress, extra)).start()
         wm = context.window_manager
@@ -139,25 +147,44 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
 
     def modal(self, context, event):
         job = IBLBAKE_OT_bake._job
-        if event.type == "ESC" and event.value == "PRESS":
-            job.cancel()
-            context.workspace.status_text_set("iblbake: cancelling...")
-            return {"RUNNING_MODAL"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        stage, fraction = job.status()
-        context.window_manager.progress_update(int(100 * fraction))
-        context.workspace.status_text_set("iblbake: %s %d%% (Esc to cancel)" % (stage, int(100 * fraction)))
-        if not job.done():
-            return {"RUNNING_MODAL"}
-        return self._finish(context, job)
+        try:
+            if job is None:  # released by a file load (see _release_on_load)
+                return self._finish(context, None)
+            if event.type == "ESC" and event.value == "PRESS":
+                job.cancel()
+                self._workspace.status_text_set("iblbake: cancelling...")
+                return {"RUNNING_MODAL"}
+            if event.type != "TIMER":
+                return {"PASS_THROUGH"}
+            stage, fraction = job.status()
+            context.window_manager.progress_update(int(100 * fraction))
+            self._workspace.status_text_set("iblbake: %s %d%% (Esc to cancel)" % (stage, int(100 * fraction)))
+            if not job.done():
+                return {"RUNNING_MODAL"}
+            return self._finish(context, job)
+        except Exception as e:  # never leave the timer, the progress bar or the job behind
+            if job is not None:
+                job.cancel()
+            self._cleanup(context)
+            self.report({"ERROR"}, "iblbake: %s: %s" % (type(e).__name__, e))
+            return {"CANCELLED"}
+
+    def _cleanup(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        try:
+            self._workspace.status_text_set(None)
+        except (ReferenceError, AttributeError):  # the workspace went away with a loaded file
+            pass
+        IBLBAKE_OT_bake._job = None
 
     def _finish(self, context, job):
-        wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
-        IBLBAKE_OT_bake._job = None
+        self._cleanup(context)
+        if job is None:
+            return {"CANCELLED"}
         scene = bpy.data.scenes.get(self._scene_name) or context.scene
         if job.cancelled:
             return self._fail(scene, "cancelled; the earlier bake is unchanged")
@@ -184,4 +211,15 @@ class IBLBAKE_OT_open_output(bpy.types.Operator):
         return {"FINISHED"}
 
 
+@persistent
+def _release_on_load(*_args):
+    """A file load drops modal handlers: cancel the running bake (nothing is
+    written) so the Bake button works again in the new file."""
+    job = IBLBAKE_OT_bake._job
+    if job is not None:
+        job.cancel()
+        IBLBAKE_OT_bake._job = None
+
+
 classes = (IBLBAKE_OT_bake, IBLBAKE_OT_open_output)
+HANDLERS = ((bpy.app.handlers.load_pre, _release_on_load),)

@@ -120,15 +120,3 @@ class IBLBAKE_PT_world(bpy.types.Panel):
 
 classes = (IBLBAKE_PT_world,)
 HANDLERS = ((bpy.app.handlers.depsgraph_update_post, _forget_needs), (bpy.app.handlers.load_post, _forget_needs))
-
-
-def register_handlers():
-    for handlers, fn in HANDLERS:
-        handlers.append(fn)
-
-
-def unregister_handlers():
-    for handlers, fn in HANDLERS:
-        if fn in handlers:
-            handlers.remove(fn)
-    _needs_cache.clear()

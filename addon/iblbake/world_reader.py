@@ -33,8 +33,20 @@ def _linked_node(sock):
 
 
 def _active_output(tree):
-    outs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.target in ("ALL", "CYCLES")]
-    return next((n for n in outs if n.is_active_output), outs[0] if outs else None)
+    """The World Output Cycles uses (Blender's ntreeShaderOutputNode): an
+    output for exactly CYCLES beats one for ALL; among equals, the active one."""
+    best = None
+    for n in tree.nodes:
+        if n.bl_idname != "ShaderNodeOutputWorld" or n.target not in ("ALL", "CYCLES"):
+            continue
+        if best is None:
+            best = n
+        elif n.target == best.target:
+            if n.is_active_output:
+                best = n
+        elif n.target == "CYCLES":
+            best = n
+    return best
 
 
 def _constant(sock):
@@ -109,8 +121,12 @@ def _mapping(vector_sock):
     if node.bl_idname != "ShaderNodeMapping":
         return None, "the Environment Texture's Vector comes from %s" % node.bl_idname
     src = _linked_node(node.inputs["Vector"])
-    if src is not None and not (src[0].bl_idname == "ShaderNodeTexCoord" and src[1].name == "Generated"):
+    if src is None:
+        return None, "the Mapping node's Vector is unlinked (a constant lookup)"
+    if not (src[0].bl_idname == "ShaderNodeTexCoord" and src[1].name == "Generated"):
         return None, "the Mapping node's Vector comes from %s" % src[0].bl_idname
+    if node.mute:  # passes the vector through
+        return None, ""
     vals = {}
     for key in ("Location", "Rotation", "Scale"):
         sock = node.inputs.get(key)
@@ -123,11 +139,17 @@ def _mapping(vector_sock):
     return Mapping(node.vector_type, vals["Location"], vals["Rotation"], vals["Scale"]), ""
 
 
+class NeedsRender(Exception):
+    """The image's pixels are not what Cycles shows (e.g. straight alpha)."""
+
+
 def read_image_pixels(src: WorldSource):
     """The Environment Texture's radiance, (H, W, 3) float32 rows top-down."""
     img = bpy.data.images[src.image_name]
     if src.image_path and not os.path.isfile(src.image_path):
         raise WorldError("the world's image '%s' cannot be read: no file at %s" % (img.name, src.image_path))
+    if src.image_path and not img.is_dirty:
+        img.reload()  # the file may have changed since Blender read it
     w, h = img.size
     if w == 0 or h == 0 or not img.has_data:
         img.reload()
@@ -137,6 +159,10 @@ def read_image_pixels(src: WorldSource):
     src.is_float = bool(img.is_float)
     flat = np.empty(w * h * 4, dtype=np.float32)
     img.pixels.foreach_get(flat)
+    # Cycles multiplies the colour by a straight alpha below 1: leave that to it.
+    if (img.alpha_mode not in ("CHANNEL_PACKED", "NONE") and src.colorspace not in ("Non-Color", "Raw")
+            and float(flat[3::4].min()) < 1.0):
+        raise NeedsRender("the image has alpha below 1")
     from .core.world import prepare_pixels
     return prepare_pixels(src, flat, w, h, remap=native.load().remap_latlong)
 
@@ -146,17 +172,46 @@ def read_image_pixels(src: WorldSource):
 PANO_ROTATION = (math.radians(90.0), 0.0, math.radians(-90.0))
 
 
-def render_world(world, width: int, samples: int):
-    """The world as Cycles shows it to camera rays, as a (width/2, width, 3)
-    float32 lat-long (SPEC.md section 1's layout), rendered in a scratch
-    scene with nothing in it (box pixel filter: each pixel is its texel's mean)."""
+def lighting_copy(world):
+    """A copy of the world as it lights the scene: visible to camera rays, and
+    Light Path's Is Camera Ray read as 0 (a backdrop shown only to the camera
+    is not what objects reflect). Returns (copy, notes)."""
+    copy = world.copy()
+    notes = []
+    copy.cycles_visibility.camera = True
+    if world.cycles_visibility.camera is False:
+        notes.append("camera visibility of the world turned on for the render")
+    if copy.use_nodes and copy.node_tree is not None:
+        nt = copy.node_tree
+        for node in list(nt.nodes):
+            if node.bl_idname != "ShaderNodeLightPath":
+                continue
+            links = list(node.outputs["Is Camera Ray"].links)
+            if links:
+                zero = nt.nodes.new("ShaderNodeValue")
+                zero.outputs[0].default_value = 0.0
+                for link in links:
+                    nt.links.new(zero.outputs[0], link.to_socket)
+                notes.append("Light Path 'Is Camera Ray' read as 0 (%s)" % node.name)
+    return copy, notes
+
+
+def render_world(world, width: int, samples: int, frame: int = 1):
+    """The world as it lights the scene (lighting_copy), as a (width/2,
+    width, 3) float32 lat-long (SPEC.md section 1's layout), rendered by
+    Cycles in a scratch scene with nothing in it at `frame` (box pixel
+    filter: each pixel is its texel's mean). Blocks until done."""
     scene = bpy.data.scenes.new("iblbake render")
+    scene.frame_current = frame
     cam_data = bpy.data.cameras.new("iblbake pano")
     cam = bpy.data.objects.new("iblbake pano", cam_data)
     tmp = tempfile.mkdtemp(prefix="iblbake-render-")
     path = os.path.join(tmp, "world.exr")
+    lit = None
     try:
-        scene.world = world
+        if world is not None:
+            lit, _ = lighting_copy(world)
+        scene.world = lit
         cam_data.type = "PANO"
         if hasattr(cam_data, "panorama_type"):        # Blender 4+
             cam_data.panorama_type = "EQUIRECTANGULAR"
@@ -191,6 +246,8 @@ def render_world(world, width: int, samples: int):
         bpy.data.objects.remove(cam)
         bpy.data.cameras.remove(cam_data)
         bpy.data.scenes.remove(scene)
+        if lit is not None:
+            bpy.data.worlds.remove(lit)
         for f in os.listdir(tmp):
             os.remove(os.path.join(tmp, f))
         os.rmdir(tmp)
@@ -200,10 +257,39 @@ def read_world(scene, render_width: int, render_samples: int):
     """(WorldSource, pixels or None for a plain colour)."""
     src = classify(scene.world)
     if src.path == IMAGE:
-        return src, read_image_pixels(src)
+        try:
+            return src, read_image_pixels(src)
+        except NeedsRender as e:
+            src = WorldSource(RENDER, str(e), world=src.world)
     if src.path == RENDER:
+        notes = []
+        if render_width < SUN_DISC_MIN_WIDTH and _has_sun_disc(scene.world):
+            notes.append("render width raised from %d to %d: a sun disc narrower than a pixel is hit by "
+                         "too few samples" % (render_width, SUN_DISC_MIN_WIDTH))
+            render_width = SUN_DISC_MIN_WIDTH
         src.render = {"width": render_width, "height": max(1, render_width // 2), "samples": render_samples,
                       "engine": "CYCLES", "camera": "panoramic equirectangular", "denoising": False,
-                      "pixel_filter": "box 1 px"}
-        return src, render_world(scene.world, render_width, render_samples)
+                      "pixel_filter": "box 1 px", "frame": scene.frame_current}
+        if scene.world is not None:
+            notes += lighting_copy_notes(scene.world)
+        src.render["notes"] = notes
+        return src, render_world(scene.world, render_width, render_samples, scene.frame_current)
     return src, None
+
+
+# Nishita's sun is 0.545 degrees across by default: at 1024 pixels across
+# (0.35 degrees each) it covers about two pixels, which 16 samples resolve.
+SUN_DISC_MIN_WIDTH = 1024
+
+
+def _has_sun_disc(world):
+    if world is None or not world.use_nodes or world.node_tree is None:
+        return False
+    return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type == "NISHITA" and n.sun_disc and not n.mute
+               for n in world.node_tree.nodes)
+
+
+def lighting_copy_notes(world):
+    copy, notes = lighting_copy(world)
+    bpy.data.worlds.remove(copy)
+    return notes

@@ -242,6 +242,68 @@ def case_needs(args):
     return out
 
 
+def case_needs_edges(args):
+    """Materials the render shows though the viewport does not, or only
+    through instances or muted nodes, still count."""
+    scene = empty_scene(face_size=32)
+    image_world(save_exr(os.path.join(WORK, "field.exr"), direction_field(64, 32)))
+    add_cube(material("diffuse", "ShaderNodeBsdfDiffuse"))
+    metal = material("metal", "ShaderNodeBsdfPrincipled", Roughness=0.1, Metallic=1.0)
+    out = {}
+
+    def needs():
+        from iblbake.core.settings import BakeSettings
+        n = operators.scene_needs_for(scene, BakeSettings(face_size=32))
+        return {"specular": n.specular, "levels": list(n.levels) if n.levels else None}
+
+    out["diffuse"] = needs()
+    add_cube(metal)
+    hidden = bpy.context.active_object
+    hidden.hide_set(True)
+    out["hidden_in_viewport"] = needs()
+    hidden.hide_render = True
+    out["hidden_in_render"] = needs()
+    coll = bpy.data.collections.new("instanced")
+    coll.objects.link(hidden)
+    inst = bpy.data.objects.new("inst", None)
+    inst.instance_type, inst.instance_collection = "COLLECTION", coll
+    scene.collection.objects.link(inst)
+    out["collection_instance"] = needs()
+    bpy.data.objects.remove(inst)
+    mix = material("mutedmix", "ShaderNodeMixShader")
+    nt = mix.node_tree
+    glossy = nt.nodes.new("ShaderNodeBsdfGlossy")
+    glossy.inputs["Roughness"].default_value = 0.0
+    nt.links.new(glossy.outputs[0], nt.nodes["Mix Shader"].inputs[1])
+    nt.nodes["Mix Shader"].mute = True
+    bpy.data.objects.remove(hidden)
+    add_cube(mix)
+    out["muted_mix"] = needs()
+    return out
+
+
+def case_light_path(args):
+    """A world showing a grey backdrop to the camera and the image to
+    everything else is baked as it lights the scene: the image."""
+    scene = empty_scene()
+    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(64, 32))
+    world = image_world(path)
+    nt = world.node_tree
+    bg = nt.nodes["Background"]
+    backdrop = nt.nodes.new("ShaderNodeBackground")
+    backdrop.inputs["Color"].default_value = (0.05, 0.05, 0.05, 1)
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    lp = nt.nodes.new("ShaderNodeLightPath")
+    nt.links.new(lp.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    nt.links.new(bg.outputs[0], mix.inputs[1])
+    nt.links.new(backdrop.outputs[0], mix.inputs[2])
+    nt.links.new(mix.outputs[0], nt.nodes["World Output"].inputs["Surface"])
+    world.cycles_visibility.camera = False
+    scene.iblbake.render_width, scene.iblbake.render_samples = 64, 4
+    res = bake(os.path.join(WORK, "out"), bake_lut=False)
+    return res
+
+
 def case_cancel(args):
     """A bake cancelled half-way (the modal operator's background job) leaves
     the earlier bake as it was."""

@@ -6,7 +6,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from conftest import BLENDER, ROOT, manifest, read, run_blender, sample_cross
+from blender_helpers import BLENDER, ROOT, manifest, read, run_blender, sample_cross
 
 FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
 SCRIPT = os.path.join(ROOT, "blender_scripts", "bake_world.py")
@@ -119,6 +119,28 @@ def test_materials_decide_what_is_baked(case):
     assert m["irradiance"] is None and [e["level"] for e in m["specular"]] == [0, 1, 2, 3, 4, 5]
     m = manifest(work / "metal_all")  # skipping switched off
     assert m["irradiance"] is not None and m["blender"]["auto_skip"] is False
+
+
+def test_what_the_render_shows_counts_not_what_the_viewport_shows(case):
+    res, _ = case("needs_edges")
+    assert res["diffuse"]["specular"] is False
+    assert res["hidden_in_viewport"] == {"specular": True, "levels": [0, 1]}
+    assert res["hidden_in_render"]["specular"] is False
+    assert res["collection_instance"]["specular"] is True  # instanced: shown though hidden itself
+    assert res["muted_mix"] == {"specular": True, "levels": [0, 0]}  # a muted Mix passes its first shader
+
+
+def test_world_is_baked_as_it_lights_the_scene_not_as_the_camera_sees_it(case):
+    res, work = case("light_path")
+    assert res["error"] == "", res
+    m = manifest(work / "out")
+    assert m["blender"]["path"] == "cycles_render"
+    assert any("Is Camera Ray" in n for n in m["blender"]["render"]["notes"])
+    assert any("camera visibility" in n for n in m["blender"]["render"]["notes"])
+    irr = read(work / "out" / "irradiance.exr")
+    n = m["irradiance"]["face_size"]
+    # The direction field averages 0.5 over the sphere; the backdrop is 0.05.
+    assert abs(float(irr[n:2 * n].mean()) - 0.5) < 0.1
 
 
 def test_cancelled_bake_keeps_the_earlier_one(case):

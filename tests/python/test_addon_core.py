@@ -168,3 +168,23 @@ def test_job_cancels_between_stages_and_keeps_the_earlier_bake(tmp_path):
     assert seen[-1] == "irradiance"
     assert (tmp_path / "out" / "manifest.json").read_text() == before
     assert sorted(os.listdir(tmp_path)) == ["cache", "out"]
+
+
+def test_a_scene_that_uses_nothing_is_refused_not_emptied(tmp_path):
+    src = WorldSource(IMAGE)
+    pipeline.bake(src, sky(), small(tmp_path))
+    before = (tmp_path / "out" / "manifest.json").read_text()
+    only_emission = N.needs_from_lobes([], 9, objects=1)
+    with pytest.raises(pipeline.BakeError, match="nothing to bake"):
+        pipeline.bake(src, sky() * 3, small(tmp_path), needs=only_emission)
+    assert (tmp_path / "out" / "manifest.json").read_text() == before
+    assert pipeline.bake(src, sky() * 3, small(tmp_path, auto_skip=False), needs=only_emission).status == "baked"
+
+
+def test_hash_ignores_what_changes_no_file(tmp_path):
+    src, px = WorldSource(IMAGE), sky()
+    base = pipeline.bake(src, px, small(tmp_path))
+    assert pipeline.bake(src, px, small(tmp_path, exposure=2.0, render_width=64)).status == "unchanged"
+    assert pipeline.bake(src, px, small(tmp_path, formats=["exr", "png"])).status == "baked"
+    assert pipeline.bake(src, px, small(tmp_path, formats=["exr", "png"], exposure=2.0)).status == "baked"
+    assert base.status == "baked"

@@ -4,6 +4,7 @@ atomically. No bpy."""
 import hashlib
 import json
 import os
+import tempfile
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Optional
@@ -13,7 +14,7 @@ import numpy as np
 from . import native
 from .needs import Needs
 from .settings import BakeSettings
-from .world import COLOR, WorldSource
+from .world import COLOR, RENDER, WorldSource
 
 ProgressFn = Callable[[str, float], bool]  # (stage, fraction) -> False cancels
 
@@ -69,8 +70,16 @@ def content_hash(source: WorldSource, pixels: Optional[np.ndarray], opts: dict, 
                  core_version: str) -> str:
     """sha256 of the radiance the bake reads and of every setting that changes a file."""
     h = hashlib.sha256()
-    meta = {"core": core_version, "settings": settings.hash_fields(),
-            "options": {k: v for k, v in opts.items() if k not in ("threads",)}, "path": source.path}
+    fields = settings.hash_fields()
+    if "png" not in settings.formats:  # PNG-only settings change no file
+        for k in ("png_encoding", "exposure"):
+            fields.pop(k)
+    if source.path != RENDER:  # the render settings only matter to rendered worlds
+        for k in ("render_width", "render_samples"):
+            fields.pop(k)
+    meta = {"core": core_version, "settings": fields,
+            "options": {k: v for k, v in opts.items() if k not in ("threads", "png_encoding", "exposure")},
+            "path": source.path}
     h.update(json.dumps(meta, sort_keys=True, default=str).encode())
     if pixels is not None:
         a = np.ascontiguousarray(pixels, dtype=np.float32)
@@ -112,8 +121,18 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         raise BakeError(str(e)) from e
     if source.path != COLOR and pixels is None:
         raise BakeError("no pixels to bake")
-    out_dir = os.path.abspath(settings.out_dir)
+    out_dir = os.path.abspath(os.path.expanduser(settings.out_dir))
     opts = native_options(settings, needs)
+    if not (opts["irradiance"] or opts["specular"] or opts["lut"]):
+        why = "; ".join(sorted(set((opts.get("skip_reasons") or {}).values()))) or "every output is switched off"
+        raise BakeError("nothing to bake (%s): switch Skip Unused off to bake anyway" % why)
+    parent = os.path.dirname(out_dir)
+    while parent and not os.path.isdir(parent):
+        parent = os.path.dirname(parent)
+    try:  # fail before the work, not after it
+        os.rmdir(tempfile.mkdtemp(prefix=".iblbake-probe-", dir=parent or "."))
+    except OSError as e:
+        raise BakeError("cannot write into %s: %s" % (parent or ".", e.strerror or e)) from e
     digest = content_hash(source, pixels, opts, settings, core.__version__)
     if not settings.force and existing_hash(out_dir) == digest:
         return BakeReport("unchanged", out_dir, digest)
