@@ -30,6 +30,17 @@ def timing_only(reps):
     print(f"peak RSS {rss:.0f} MB")
 
 
+def bake_timing(results, args):
+    """The default bake's per-stage timing and the scaling table, into CSVs; returns their metadata."""
+    stage_rows, rss = timing.default_bake(args.reps)
+    write_csv(results / "default_bake.csv", stage_rows)
+    if not args.no_scaling:
+        write_csv(results / "scaling.csv", timing.scaling(3, args.quick))
+    return {"timing_reps": args.reps, "default_rss_mb": rss, "timing_date": datetime.date.today().isoformat(),
+            "timing_commit": subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                                            capture_output=True, text=True).stdout.strip()}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="4 sources, short sweeps, results in bench/.cache/quick")
@@ -37,6 +48,8 @@ def main():
     ap.add_argument("--reps", type=int, default=5, help="runs per default-bake timing (median)")
     ap.add_argument("--no-scaling", action="store_true", help="skip the scaling table")
     ap.add_argument("--report-only", action="store_true", help="redo plots and markdown from the last CSVs")
+    ap.add_argument("--redo-timing", action="store_true",
+                    help="rerun only the default-bake timing and the scaling table, then the report")
     ap.add_argument("--per-level", type=int, default=300, help="reference texels per output level")
     args = ap.parse_args()
     if args.timing_only:
@@ -45,6 +58,11 @@ def main():
     doc = results / "benchmarks.md" if args.quick else ROOT / "docs" / "benchmarks.md"
     if args.report_only:
         return report.generate(results, doc, report.load_meta(results))
+    if args.redo_timing:
+        meta = report.load_meta(results)
+        meta.update(bake_timing(results, args))
+        (results / "meta.json").write_text(json.dumps(meta, indent=1))
+        return report.generate(results, doc, meta)
 
     t_start = time.time()
     srcs = sources.all_sources(args.quick)
@@ -67,10 +85,7 @@ def main():
         write_csv(results / "specular.csv", spec_rows)
         write_csv(results / "specular_levels.csv", level_rows)
 
-    stage_rows, rss = timing.default_bake(args.reps)
-    write_csv(results / "default_bake.csv", stage_rows)
-    if not args.no_scaling:
-        write_csv(results / "scaling.csv", timing.scaling(3, args.quick))
+    timing_meta = bake_timing(results, args)
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True).stdout.strip()
     meta = {"command": "bash bench/run.sh" + (" --quick" if args.quick else ""),
@@ -78,7 +93,7 @@ def main():
             "run_minutes": (time.time() - t_start) / 60, "per_level": args.per_level,
             "lut_high_order": sweeps.LUT_HIGH_ORDER, "lut_dense": sweeps.LUT_DENSE,
             "lut_high_vs_dense": sweeps.lut_errors(high, high, dense)["max_abs_err_dense"],
-            "seed_timing_source": f"{seed_src}.exr", "timing_reps": args.reps, "default_rss_mb": rss}
+            "seed_timing_source": f"{seed_src}.exr", **timing_meta}
     (results / "meta.json").write_text(json.dumps(meta, indent=1))
     failures = report.generate(results, doc, meta)
     log(f"done in {meta['run_minutes']:.1f} min: {doc}")
