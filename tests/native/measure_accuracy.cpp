@@ -9,7 +9,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -22,20 +21,6 @@
 using namespace iblbake;
 
 namespace {
-struct Texel { int f, i, j; };
-
-std::vector<Texel> pick(int n, int k, unsigned seed) {
-    std::vector<Texel> all;
-    for (int f = 0; f < 6; ++f)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i) all.push_back({f, i, j});
-    if (int(all.size()) <= k) return all;
-    std::mt19937 rng(seed);
-    std::shuffle(all.begin(), all.end(), rng);
-    all.resize(k);
-    return all;
-}
-
 struct Stats { double rmse, p99, max, mean; };
 Stats stats(std::vector<double> e) {
     Stats s{0, 0, 0, 0};
@@ -80,6 +65,7 @@ int main(int argc, char** argv) {
     sanitize(src);
     const auto t0 = std::chrono::steady_clock::now();
     const BakeResult r = compute_bake(li.image, o);
+    const ref::TexelTable table = ref::texel_table(src);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("source %s (%dx%d), bake without LUT %.3f s, hot texels %zu (%.1f%% of power)\n", argv[1], src.width,
                 src.height, secs, r.hot_texels, 100 * r.hot_power_fraction);
@@ -87,9 +73,9 @@ int main(int argc, char** argv) {
                 "mean");
     {
         std::vector<double> e;
-        for (const Texel& t : pick(r.irradiance->size, per_level, 1))
+        for (const ref::CubeTexel& t : ref::sample_texels(r.irradiance->size, per_level, 1))
             e.push_back(rel(r.irradiance->at(t.f, t.i, t.j),
-                            ref::irradiance(src, texel_direction(t.f, t.i, t.j, r.irradiance->size))));
+                            ref::irradiance(table, texel_direction(t.f, t.i, t.j, r.irradiance->size))));
         const Stats s = stats(e);
         std::printf("%-12s %5d %6s %5zu %10.2e %10.2e %10.2e %10.2e\n", "irradiance", r.irradiance->size, "-", e.size(),
                     s.rmse, s.p99, s.max, s.mean);
@@ -97,9 +83,9 @@ int main(int argc, char** argv) {
     for (size_t m = 0; m < r.specular.size(); ++m) {
         const Cubemap& lvl = r.specular[m];
         std::vector<double> e;
-        for (const Texel& t : pick(lvl.size, per_level, unsigned(m + 2)))
+        for (const ref::CubeTexel& t : ref::sample_texels(lvl.size, per_level, unsigned(m + 2)))
             e.push_back(rel(lvl.at(t.f, t.i, t.j),
-                            ref::prefiltered(src, texel_direction(t.f, t.i, t.j, lvl.size), r.roughness[m])));
+                            ref::prefiltered(table, texel_direction(t.f, t.i, t.j, lvl.size), r.roughness[m])));
         const Stats s = stats(e);
         std::printf("%-12s %5d %6.3f %5zu %10.2e %10.2e %10.2e %10.2e  %s\n", ("specular_" + std::to_string(m)).c_str(),
                     lvl.size, r.roughness[m], e.size(), s.rmse, s.p99, s.max, s.mean, r.specular_methods[m].c_str());

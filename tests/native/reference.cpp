@@ -1,5 +1,6 @@
 #include "reference.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -10,22 +11,44 @@
 
 namespace iblbake::ref {
 
-Rgb irradiance(const Image& src, const Vec3d& n) {
-    Rgb acc{0, 0, 0};
+TexelTable texel_table(const Image& src) {
+    TexelTable t;
+    t.src = &src;
+    const size_t n = size_t(src.width) * src.height;
+    t.x.resize(n), t.y.resize(n), t.z.resize(n), t.omega.resize(src.height);
     for (int y = 0; y < src.height; ++y) {
-        const double om = latlong_row_solid_angle(y, src.width, src.height);
+        t.omega[y] = latlong_row_solid_angle(y, src.width, src.height);
         for (int x = 0; x < src.width; ++x) {
             const Vec3d w = blender_to_engine(latlong_texel_direction(x, y, src.width, src.height));
-            const double c = dot(n, w);
-            if (c <= 0) continue;
-            for (int k = 0; k < 3; ++k) acc[k] += src.at(x, y)[k] * om * c;
+            const size_t i = size_t(y) * src.width + x;
+            t.x[i] = w.x, t.y[i] = w.y, t.z[i] = w.z;
         }
+    }
+    return t;
+}
+
+Rgb irradiance(const TexelTable& t, const Vec3d& n) {
+    const Image& src = *t.src;
+    Rgb acc{0, 0, 0};
+    for (int y = 0; y < src.height; ++y) {
+        const size_t row = size_t(y) * src.width;
+        Rgb racc{0, 0, 0};
+        for (int x = 0; x < src.width; ++x) {
+            const size_t i = row + x;
+            const double c = n.x * t.x[i] + n.y * t.y[i] + n.z * t.z[i];
+            if (c <= 0) continue;
+            for (int k = 0; k < 3; ++k) racc[k] += src.pixels[i * 3 + k] * c;
+        }
+        for (int k = 0; k < 3; ++k) acc[k] += racc[k] * t.omega[y];
     }
     for (double& v : acc) v /= kPi;
     return acc;
 }
 
-Rgb prefiltered(const Image& src, const Vec3d& n, double roughness) {
+Rgb irradiance(const Image& src, const Vec3d& n) { return irradiance(texel_table(src), n); }
+
+Rgb prefiltered(const TexelTable& t, const Vec3d& n, double roughness) {
+    const Image& src = *t.src;
     if (roughness == 0.0) {
         float v[3];
         latlong_bilinear(src, n, v);
@@ -35,18 +58,26 @@ Rgb prefiltered(const Image& src, const Vec3d& n, double roughness) {
     Rgb acc{0, 0, 0};
     double wsum = 0.0;
     for (int y = 0; y < src.height; ++y) {
-        const double om = latlong_row_solid_angle(y, src.width, src.height);
+        const size_t row = size_t(y) * src.width;
+        Rgb racc{0, 0, 0};
+        double rw = 0.0;
         for (int x = 0; x < src.width; ++x) {
-            const Vec3d w = blender_to_engine(latlong_texel_direction(x, y, src.width, src.height));
-            const Vec3d d = n - w;
-            const double k = ggx::prefilter_kernel(alpha, 0.5 * dot(d, d)) * om;
+            const size_t i = row + x;
+            const double dx = n.x - t.x[i], dy = n.y - t.y[i], dz = n.z - t.z[i];
+            const double k = ggx::prefilter_kernel(alpha, 0.5 * (dx * dx + dy * dy + dz * dz));
             if (k == 0.0) continue;
-            for (int c = 0; c < 3; ++c) acc[c] += src.at(x, y)[c] * k;
-            wsum += k;
+            for (int c = 0; c < 3; ++c) racc[c] += src.pixels[i * 3 + c] * k;
+            rw += k;
         }
+        for (int c = 0; c < 3; ++c) acc[c] += racc[c] * t.omega[y];
+        wsum += rw * t.omega[y];
     }
     for (double& v : acc) v /= wsum;
     return acc;
+}
+
+Rgb prefiltered(const Image& src, const Vec3d& n, double roughness) {
+    return prefiltered(texel_table(src), n, roughness);
 }
 
 std::array<double, 2> brdf_karis(double ndotv, double roughness, int n_theta, int n_phi) {
@@ -75,6 +106,18 @@ std::array<double, 2> brdf_karis(double ndotv, double roughness, int n_theta, in
         }
     }
     return {a * dph, b * dph};
+}
+
+std::vector<CubeTexel> sample_texels(int n, int k, unsigned seed) {
+    std::vector<CubeTexel> all;
+    for (int f = 0; f < 6; ++f)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) all.push_back({f, i, j});
+    if (int(all.size()) <= k) return all;
+    std::mt19937 rng(seed);
+    std::shuffle(all.begin(), all.end(), rng);
+    all.resize(k);
+    return all;
 }
 
 Image constant_source(int w, int h, float value) {

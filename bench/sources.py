@@ -1,0 +1,59 @@
+"""The benchmark's sources: Blender's studiolight HDRIs plus generated ones, in bench/.cache/sources."""
+import subprocess
+from pathlib import Path
+
+from common import CACHE, log, run_tool
+
+STUDIOLIGHTS = Path("/usr/share/blender/datafiles/studiolights/world")
+QUICK = ["forest", "sunset", "sun_2k", "checker_2k"]
+
+
+def _oiiotool(*args):
+    subprocess.run(["oiiotool", *map(str, args)], check=True, capture_output=True)
+
+
+def resized(name, w, h):
+    """Studiolight `name` resized to w x h (cached)."""
+    out = CACHE / "sources" / f"{name}_{w}x{h}.exr"
+    if not out.exists():
+        out.parent.mkdir(parents=True, exist_ok=True)
+        _oiiotool(STUDIOLIGHTS / f"{name}.exr", "--resize:filter=triangle", f"{w}x{h}", "-d", "float", "-o", out)
+    return out
+
+
+def generated():
+    """name -> path of the generated sources, made when missing."""
+    d = CACHE / "sources"
+    d.mkdir(parents=True, exist_ok=True)
+    out = {"sun_2k": d / "sun_2048x1024.exr", "checker_2k": d / "checker_2048x1024.exr"}
+    if not out["sun_2k"].exists():
+        log("making the pure sun source")
+        run_tool("sun", 2048, 1024, out["sun_2k"])
+    if not out["checker_2k"].exists():
+        log("making the checkerboard source")
+        _oiiotool("--pattern", "checker:width=64:height=64:color1=0.01,0.01,0.01:color2=1,1,1", "2048x1024", 3,
+                  "-d", "float", "-o", out["checker_2k"])
+    out["sunset_2k"] = resized("sunset", 2048, 1024)
+    out["sunset_4k"] = resized("sunset", 4096, 2048)
+    return out
+
+
+def all_sources(quick=False):
+    """Ordered name -> path: every studiolight, then the generated sources."""
+    srcs = {p.stem: p for p in sorted(STUDIOLIGHTS.glob("*.exr"))}
+    srcs.update(generated())
+    if quick:
+        srcs = {k: v for k, v in srcs.items() if k in QUICK}
+    return srcs
+
+
+DESCRIPTIONS = {
+    "sun_2k": "pure sun: 0.5 deg disc of 5e4 on a dim sky, 2048 x 1024",
+    "checker_2k": "checkerboard 0.01 / 1, 64 px squares, 2048 x 1024",
+    "sunset_2k": "sunset.exr resized to 2048 x 1024",
+    "sunset_4k": "sunset.exr resized to 4096 x 2048",
+}
+
+
+def describe(name):
+    return DESCRIPTIONS.get(name, f"{name}.exr 1024 x 512")
