@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <functional>
 
+#include "iblbake/ibl/parallel.h"
 #include "iblbake/image/encode.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
@@ -160,23 +162,33 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
     const auto start = std::chrono::steady_clock::now();
     io::StagingDir staging(outdir);
     const fs::path dir = staging.path();
-    json encodings = json::object();
-    if (r.irradiance) write_cross(dir, "irradiance", *r.irradiance, wo, encodings);
+    // One job per file set, written in parallel (separate files, separate
+    // encoders); each records its encodings, merged in a fixed order.
+    std::vector<std::function<void(json&)>> jobs;
+    if (r.irradiance) jobs.push_back([&](json& e) { write_cross(dir, "irradiance", *r.irradiance, wo, e); });
     for (size_t i = 0; i < r.specular.size(); ++i)
-        write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, encodings);
-    if (r.lut) {
-        const Image& lut = *r.lut;
-        if (wo.exr) {
-            io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
-            encodings["brdf_lut.exr"] = "float";
-        }
-        if (wo.png) {
-            std::vector<float> v(lut.pixels.size());
-            for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
-            io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
-            encodings["brdf_lut.png"] = "unorm16";
-        }
-    }
+        jobs.push_back([&, i](json& e) {
+            write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, e);
+        });
+    if (r.lut)
+        jobs.push_back([&](json& e) {
+            const Image& lut = *r.lut;
+            if (wo.exr) {
+                io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
+                e["brdf_lut.exr"] = "float";
+            }
+            if (wo.png) {
+                std::vector<float> v(lut.pixels.size());
+                for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
+                io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
+                e["brdf_lut.png"] = "unorm16";
+            }
+        });
+    std::vector<json> parts(jobs.size(), json::object());
+    parallel_for(0, int(jobs.size()), [&](int k) { jobs[k](parts[k]); });
+    json encodings = json::object();
+    for (const json& part : parts)
+        for (const auto& [file, enc] : part.items()) encodings[file] = enc;
     const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     json manifest = make_manifest(r, bo, wo, src, encodings, write_seconds);
     {

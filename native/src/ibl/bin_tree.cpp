@@ -19,8 +19,22 @@ BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
     const size_t n = size_t(w) * h;
     for (auto* v : {&L.px, &L.py, &L.pz, &L.cx, &L.cy, &L.cz, &L.omega, &L.radius}) v->resize(n);
     for (auto& v : L.power) v.resize(n);
+    // Longitudes at every half bin (the radius test's 3 x 3 points per bin):
+    // cos and sin once per level, not per bin.
+    std::vector<double> cphi(2 * w + 1), sphi(2 * w + 1);
+    for (int k = 0; k <= 2 * w; ++k) {
+        const double phi = (0.5 - 0.5 * k / w) * 2.0 * kPi;
+        cphi[k] = std::cos(phi);
+        sphi[k] = std::sin(phi);
+    }
     parallel_for(0, h, [&](int y) {
         const double v0 = 1.0 - double(y + 1) / h, v1 = 1.0 - double(y) / h;
+        double clat[3], slat[3];
+        for (int r = 0; r < 3; ++r) {
+            const double lat = (v0 + (v1 - v0) * 0.5 * r - 0.5) * kPi;
+            clat[r] = std::cos(lat);
+            slat[r] = std::sin(lat);
+        }
         for (int x = 0; x < w; ++x) {
             const size_t i = L.index(x, y);
             const Bin& b = bins[i];
@@ -42,8 +56,9 @@ BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
             L.omega[i] = float(cl);
             double min_cos = 1.0;
             for (int k = 0; k < 9; ++k) {
-                const double u = (x + 0.5 * (k % 3)) / w, v = v0 + (v1 - v0) * 0.5 * (k / 3);
-                min_cos = std::min(min_cos, dot(c, blender_to_engine(latlong_to_direction(u, v))));
+                const int col = 2 * x + k % 3, r = k / 3;
+                const Vec3d blender{clat[r] * cphi[col], clat[r] * sphi[col], slat[r]};
+                min_cos = std::min(min_cos, dot(c, blender_to_engine(blender)));
             }
             L.radius[i] = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
         }

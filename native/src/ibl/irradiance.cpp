@@ -11,23 +11,29 @@ namespace iblbake {
 
 namespace {
 
-// One output direction against the whole cloud; the inner loop is a plain
-// structure-of-arrays sum the compiler vectorises.
+// One output direction against the whole cloud: a structure-of-arrays sum
+// in kLanes independent float partials (so the loop vectorises and the
+// order is fixed), float within blocks, double across them.
 void convolve_direction(const VectorCloud& cloud, const Vec3d& n, float out[3]) {
+    constexpr size_t kLanes = 16, kBlock = 256;
     const float nx = float(n.x), ny = float(n.y), nz = float(n.z);
-    const size_t count = cloud.size();
+    const size_t count = cloud.size(), whole = count / kLanes * kLanes;
     for (int c = 0; c < 3; ++c) {
         const float* x = cloud.x[c].data();
         const float* y = cloud.y[c].data();
         const float* z = cloud.z[c].data();
         double total = 0.0;
-        constexpr size_t kBlock = 256;  // float partials, double across blocks
-        for (size_t b = 0; b < count; b += kBlock) {
-            const size_t e = std::min(count, b + kBlock);
-            float s = 0.0f;
-            for (size_t p = b; p < e; ++p) s += std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
-            total += s;
+        for (size_t b = 0; b < whole; b += kBlock) {
+            const size_t e = std::min(whole, b + kBlock);
+            float s[kLanes] = {};
+            for (size_t p = b; p < e; p += kLanes)
+                for (size_t l = 0; l < kLanes; ++l)
+                    s[l] += std::max(0.0f, nx * x[p + l] + ny * y[p + l] + nz * z[p + l]);
+            float t = 0.0f;
+            for (float v : s) t += v;
+            total += t;
         }
+        for (size_t p = whole; p < count; ++p) total += std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
         out[c] = float(total / kPi);
     }
 }

@@ -223,7 +223,7 @@ std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh) {
 std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
     const int w = bw / 2, h = bh / 2;
     std::vector<Bin> out(size_t(w) * h, Bin{});
-    for (int y = 0; y < h; ++y)
+    parallel_for(0, h, [&](int y) {
         for (int x = 0; x < w; ++x) {
             Bin& o = out[size_t(y) * w + x];
             for (int dy = 0; dy < 2; ++dy)
@@ -237,6 +237,7 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
                     o.omega += b.omega;
                 }
         }
+    });
     return out;
 }
 
