@@ -5,7 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake pkg-config
-  libopenimageio-dev libopenexr-dev
+  libopenimageio-dev libopenexr-dev libpng-dev
   pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib time
   nlohmann-json3-dev libtbb-dev libssl-dev libcli11-dev
   libgtest-dev libbenchmark-dev

@@ -1,43 +1,99 @@
 #include "iblbake/io/image_io.h"
 
-#include <OpenImageIO/imageio.h>
+#include <dlfcn.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
+#include <mutex>
 #include <stdexcept>
 
 #include "iblbake/math/color.h"
+#include "raw_pixels.h"
 
 namespace iblbake::io {
 
+using detail::RawPixels;
+
 namespace {
+
 [[noreturn]] void fail(const std::string& path, const std::string& why) {
     std::string msg = why;
     std::replace(msg.begin(), msg.end(), '\n', ' ');
     throw std::runtime_error("cannot read '" + path + "': " + msg);
 }
-}  // namespace
 
-LoadedImage read_image(const std::string& path) {
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) fail(path, "no such file");
-    if (std::filesystem::is_directory(path, ec)) fail(path, "is a directory");
-    if (std::filesystem::file_size(path, ec) == 0) fail(path, "file is empty");
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) fail(path, OIIO::geterror());
-    const OIIO::ImageSpec spec = in->spec();
-    const int dw = spec.width, dh = spec.height, nch = spec.nchannels;
-    if (dw < 1 || dh < 1 || nch < 1 || spec.depth > 1) fail(path, "image has no pixels");
-    std::vector<float> data(size_t(dw) * dh * nch);
-    if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, data.data())) fail(path, in->geterror());
-    in->close();
-    // The lat-long spans the display window; pixels outside the data window are 0.
-    const int w = spec.full_width > 0 ? spec.full_width : dw, h = spec.full_height > 0 ? spec.full_height : dh;
-    const int ox = spec.x - spec.full_x, oy = spec.y - spec.full_y;
+// The OpenImageIO plugin: $IBLBAKE_OIIO_PLUGIN, else beside the binary that
+// holds this code (the CLI, the Python module), else where the build put it.
+struct Plugin {
+    detail::IblbakeOiioRead read = nullptr;
+    detail::IblbakeOiioFree release = nullptr;
+    std::string error;
+};
+
+const Plugin& plugin() {
+    static Plugin p;
+    static std::once_flag once;
+    std::call_once(once, [] {
+        std::vector<std::string> candidates;
+        if (const char* env = std::getenv("IBLBAKE_OIIO_PLUGIN")) candidates.emplace_back(env);
+        Dl_info info{};
+        if (dladdr(reinterpret_cast<void*>(&plugin), &info) && info.dli_fname)
+            candidates.push_back(
+                (std::filesystem::path(info.dli_fname).parent_path() / "libiblbake_oiio.so").string());
+#ifdef IBLBAKE_OIIO_PLUGIN_BUILD_PATH
+        candidates.emplace_back(IBLBAKE_OIIO_PLUGIN_BUILD_PATH);
+#endif
+        for (const std::string& c : candidates) {
+            std::error_code ec;
+            if (!std::filesystem::is_regular_file(c, ec)) continue;
+            void* h = dlopen(c.c_str(), RTLD_NOW | RTLD_LOCAL);
+            if (!h) {
+                p.error = dlerror();
+                continue;
+            }
+            p.read = reinterpret_cast<detail::IblbakeOiioRead>(dlsym(h, "iblbake_oiio_read"));
+            p.release = reinterpret_cast<detail::IblbakeOiioFree>(dlsym(h, "iblbake_oiio_free"));
+            if (p.read && p.release) return;
+            p.error = c + " is not iblbake's OpenImageIO plugin";
+        }
+        if (p.error.empty()) p.error = "libiblbake_oiio.so (the OpenImageIO reader for formats other than EXR) not found";
+    });
+    return p;
+}
+
+RawPixels read_with_plugin(const std::string& path) {
+    const Plugin& p = plugin();
+    if (!p.read) fail(path, p.error);
+    detail::IblbakeOiioImage img{};
+    char error[512] = {0};
+    if (!p.read(path.c_str(), &img, error, sizeof(error))) fail(path, error);
+    RawPixels raw;
+    raw.width = img.width;
+    raw.height = img.height;
+    raw.full_width = img.full_width;
+    raw.full_height = img.full_height;
+    raw.x_offset = img.x_offset;
+    raw.y_offset = img.y_offset;
+    raw.channels = img.channels;
+    raw.alpha_channel = img.alpha_channel;
+    raw.is_float = img.is_float != 0;
+    raw.colorspace = img.colorspace;
+    raw.format = img.format;
+    raw.data.assign(img.data, img.data + size_t(img.width) * img.height * img.channels);
+    p.release(img.data);
+    return raw;
+}
+
+// Display window, colour channels, sRGB decode: the same for every reader.
+LoadedImage finish(RawPixels&& r) {
+    const int dw = r.width, dh = r.height, nch = r.channels;
+    const int w = r.full_width > 0 ? r.full_width : dw, h = r.full_height > 0 ? r.full_height : dh;
+    const int ox = r.x_offset, oy = r.y_offset;
     std::vector<float> raw;
     if (w == dw && h == dh && ox == 0 && oy == 0) {
-        raw = std::move(data);
-    } else {
+        raw = std::move(r.data);
+    } else {  // the lat-long spans the display window; pixels outside the data window are 0
         raw.assign(size_t(w) * h * nch, 0.0f);
         for (int y = 0; y < dh; ++y) {
             const int ty = y + oy;
@@ -45,23 +101,19 @@ LoadedImage read_image(const std::string& path) {
             for (int x = 0; x < dw; ++x) {
                 const int tx = x + ox;
                 if (tx < 0 || tx >= w) continue;
-                std::copy_n(&data[(size_t(y) * dw + x) * nch], nch, &raw[(size_t(ty) * w + tx) * nch]);
+                std::copy_n(&r.data[(size_t(y) * dw + x) * nch], nch, &raw[(size_t(ty) * w + tx) * nch]);
             }
         }
     }
-
     LoadedImage out;
     out.source_channels = nch;
-    out.format = in->format_name();
-    const std::string cs = spec.get_string_attribute("oiio:ColorSpace");
-    const bool is_float = spec.format.is_floating_point();
-    out.linearised = !is_float && cs != "linear" && cs != "Linear";
+    out.format = r.format;
+    out.linearised = !r.is_float && r.colorspace != "linear" && r.colorspace != "Linear";
     out.image = Image(w, h);
     // Colour channels: RGB if there are three non-alpha channels, else grey.
-    const int alpha = spec.alpha_channel;
     std::vector<int> colour;
     for (int c = 0; c < nch && colour.size() < 3; ++c)
-        if (c != alpha) colour.push_back(c);
+        if (c != r.alpha_channel) colour.push_back(c);
     if (colour.empty()) colour.push_back(0);
     if (colour.size() < 3) colour.assign(3, colour[0]);
     for (size_t p = 0; p < size_t(w) * h; ++p)
@@ -73,40 +125,54 @@ LoadedImage read_image(const std::string& path) {
     return out;
 }
 
-namespace {
-void write_generic(const std::string& path, const OIIO::ImageSpec& spec, const std::vector<float>& values) {
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out) throw std::runtime_error("cannot write '" + path + "': " + OIIO::geterror());
-    if (!out->open(path, spec)) throw std::runtime_error("cannot write '" + path + "': " + out->geterror());
-    if (!out->write_image(OIIO::TypeDesc::FLOAT, values.data()))
-        throw std::runtime_error("cannot write '" + path + "': " + out->geterror());
-    if (!out->close()) throw std::runtime_error("cannot write '" + path + "': " + out->geterror());
+void check_size(const std::string& path, int width, int height, int channels, size_t values) {
+    if (width < 1 || height < 1 || channels < 1 || channels > 4 || values != size_t(width) * height * channels)
+        throw std::invalid_argument("cannot write '" + path + "': buffer does not match its size");
 }
+
 }  // namespace
+
+LoadedImage read_image(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) fail(path, "no such file");
+    if (std::filesystem::is_directory(path, ec)) fail(path, "is a directory");
+    if (std::filesystem::file_size(path, ec) == 0) fail(path, "file is empty");
+    if (detail::is_exr(path)) {
+        try {
+            return finish(detail::read_exr(path));
+        } catch (const std::exception& e) {
+            fail(path, e.what());
+        }
+    }
+    return finish(read_with_plugin(path));
+}
 
 void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
                ExrPixel pixel) {
-    OIIO::ImageSpec spec(width, height, channels,
-                         pixel == ExrPixel::Half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
-    if (channels == 4) spec.alpha_channel = 3;
-    spec.attribute("compression", "zip");
-    spec.attribute("oiio:ColorSpace", "linear");
-    spec.attribute("DateTime", "");  // no time stamp: equal pixels, equal files
-    write_generic(path, spec, values);
+    check_size(path, width, height, channels, values.size());
+    try {
+        detail::write_exr_file(path, width, height, channels, values.data(), pixel == ExrPixel::Half);
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot write '" + path + "': " + e.what());
+    }
 }
 
 void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
-    if (channels == 4) spec.alpha_channel = 3;
-    // Values are already encoded: no colour conversion, no premultiplication.
-    spec.attribute("oiio:UnassociatedAlpha", 1);
-    write_generic(path, spec, values);
+    check_size(path, width, height, channels, values.size());
+    try {
+        detail::write_png_file(path, width, height, channels, values.data(), 8);
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot write '" + path + "': " + e.what());
+    }
 }
 
 void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT16);
-    spec.attribute("oiio:ColorSpace", "linear");
-    write_generic(path, spec, values);
+    check_size(path, width, height, channels, values.size());
+    try {
+        detail::write_png_file(path, width, height, channels, values.data(), 16);
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot write '" + path + "': " + e.what());
+    }
 }
 
 }  // namespace iblbake::io

@@ -1,0 +1,94 @@
+// EXR files through OpenEXR itself (no OpenImageIO: a bake of EXR files
+// loads a handful of libraries, not hundreds).
+#include <Imath/ImathBox.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfRgbaFile.h>
+#include <OpenEXR/ImfTestFile.h>
+#include <Imath/half.h>
+
+#include <stdexcept>
+
+#include "raw_pixels.h"
+
+namespace iblbake::io::detail {
+
+bool is_exr(const std::string& path) { return Imf::isOpenExrFile(path.c_str()); }
+
+RawPixels read_exr(const std::string& path) {
+    RawPixels out;
+    out.format = "openexr";
+    Imf::InputFile in(path.c_str());
+    const Imf::Header& h = in.header();
+    const Imath::Box2i dw = h.dataWindow(), disp = h.displayWindow();
+    out.width = dw.max.x - dw.min.x + 1;
+    out.height = dw.max.y - dw.min.y + 1;
+    out.full_width = disp.max.x - disp.min.x + 1;
+    out.full_height = disp.max.y - disp.min.y + 1;
+    out.x_offset = dw.min.x - disp.min.x;
+    out.y_offset = dw.min.y - disp.min.y;
+    if (out.width < 1 || out.height < 1) throw std::runtime_error("image has no pixels");
+    const Imf::ChannelList& ch = h.channels();
+    // Luminance-chroma files need OpenEXR's RGBA conversion (half precision).
+    if (ch.findChannel("RY") || ch.findChannel("BY")) {
+        Imf::RgbaInputFile rgba(path.c_str());
+        std::vector<Imf::Rgba> px(size_t(out.width) * out.height);
+        rgba.setFrameBuffer(px.data() - dw.min.x - size_t(dw.min.y) * out.width, 1, out.width);
+        rgba.readPixels(dw.min.y, dw.max.y);
+        out.channels = 3;
+        out.data.resize(px.size() * 3);
+        for (size_t p = 0; p < px.size(); ++p) {
+            out.data[p * 3] = px[p].r;
+            out.data[p * 3 + 1] = px[p].g;
+            out.data[p * 3 + 2] = px[p].b;
+        }
+        return out;
+    }
+    // R, G, B when present, else Y, else the first channel (grey).
+    std::vector<std::string> names;
+    for (const char* n : {"R", "G", "B"})
+        if (ch.findChannel(n)) names.emplace_back(n);
+    if (names.empty() && ch.findChannel("Y")) names.emplace_back("Y");
+    if (names.empty() && ch.begin() != ch.end()) names.emplace_back(ch.begin().name());
+    if (names.empty()) throw std::runtime_error("image has no channels");
+    out.channels = int(names.size());
+    out.data.assign(size_t(out.width) * out.height * out.channels, 0.0f);
+    Imf::FrameBuffer fb;
+    const size_t xs = sizeof(float) * out.channels, ys = xs * out.width;
+    char* base = reinterpret_cast<char*>(out.data.data()) - dw.min.x * ptrdiff_t(xs) - dw.min.y * ptrdiff_t(ys);
+    for (int c = 0; c < out.channels; ++c)
+        fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
+    in.setFrameBuffer(fb);
+    in.readPixels(dw.min.y, dw.max.y);
+    return out;
+}
+
+void write_exr_file(const std::string& path, int width, int height, int channels, const float* values, bool half) {
+    Imf::Header header(width, height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    static const char* kNames[4] = {"R", "G", "B", "A"};
+    const Imf::PixelType type = half ? Imf::HALF : Imf::FLOAT;
+    for (int c = 0; c < channels; ++c) header.channels().insert(kNames[c], Imf::Channel(type));
+    Imf::FrameBuffer fb;
+    std::vector<::half> halves;
+    if (half) {
+        halves.resize(size_t(width) * height * channels);
+        for (size_t k = 0; k < halves.size(); ++k) halves[k] = ::half(values[k]);
+        const size_t xs = sizeof(::half) * channels;
+        for (int c = 0; c < channels; ++c)
+            fb.insert(kNames[c], Imf::Slice(Imf::HALF, reinterpret_cast<char*>(halves.data() + c), xs, xs * width));
+    } else {
+        const size_t xs = sizeof(float) * channels;
+        char* base = const_cast<char*>(reinterpret_cast<const char*>(values));
+        for (int c = 0; c < channels; ++c)
+            fb.insert(kNames[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, xs * width));
+    }
+    Imf::OutputFile file(path.c_str(), header);
+    file.setFrameBuffer(fb);
+    file.writePixels(height);
+}
+
+}  // namespace iblbake::io::detail
