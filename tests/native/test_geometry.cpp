@@ -5,6 +5,7 @@
 
 #include "iblbake/image/image.h"
 #include "iblbake/math/cube.h"
+#include "iblbake/math/fast_math.h"
 #include "iblbake/math/ggx.h"
 #include "iblbake/math/latlong.h"
 #include "iblbake/math/quadrature.h"
@@ -192,4 +193,15 @@ TEST(Basis, OrthonormalEverywhere) {
         EXPECT_NEAR(dot(t, n), 0, 1e-12);
         EXPECT_NEAR(dot(b, n), 0, 1e-12);
     }
+}
+
+TEST(FastMath, AcosWithinItsBound) {
+    double worst = 0.0;
+    for (int k = -100000; k <= 100000; ++k) {
+        const float x = float(k) / 100000.0f;
+        worst = std::max(worst, std::fabs(double(fast_acos(x)) - std::acos(double(x))));
+    }
+    EXPECT_LT(worst, 5e-7);
+    EXPECT_NEAR(fast_acos(1.5f), 0.0f, 1e-7f);  // clamped
+    EXPECT_NEAR(fast_acos(-1.5f), 3.14159265f, 1e-6f);
 }

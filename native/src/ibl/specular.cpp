@@ -5,6 +5,7 @@
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
+#include "iblbake/math/fast_math.h"
 #include "iblbake/math/ggx.h"
 #include "iblbake/math/quadrature.h"
 
@@ -200,7 +201,7 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
             const size_t b = L.index(x, y);
             if (!(L.omega[b] > 0.0f)) continue;
             const float cosd = c.x * L.cx[b] + c.y * L.cy[b] + c.z * L.cz[b];
-            const float d = std::acos(std::clamp(cosd, -1.0f, 1.0f));
+            const float d = fast_acos(cosd);
             const float beta = L.radius[b];
             if (d - beta - rho >= 0.5f * float(kPi)) continue;  // behind every texel's horizon
             const float dmin = std::max(0.0f, d - beta - rho);
