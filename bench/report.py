@@ -275,6 +275,11 @@ def generate(results, doc_path, meta):
             w(f"| {r['source']} | {r['face_size']:.0f} | {r['seconds']:.2f} s | {r['peak_rss_mb']:.0f} MB |")
         w("")
 
+    # ------------------------------------------------- hand-written history
+    history = doc_path.parent / "bench" / "speed_history.md"
+    if history.exists():
+        w(history.read_text().rstrip() + "\n")
+
     # -------------------------------------------------------------- commands
     w("## Reproduce\n")
     w("```sh")
