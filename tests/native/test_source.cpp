@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"
@@ -33,8 +34,9 @@ TEST(Source, HotSplitConservesEnergyAndBoundsRest) {
     const HotSplit s = split_hot(img, 16.0, 1024);
     ASSERT_GT(s.hot.size(), 0u);
     EXPECT_LE(s.hot.size(), 1024u);
-    for (float v : s.rest.pixels) EXPECT_LE(v, s.threshold * (1 + 1e-6));
-    auto after = mean_radiance(s.rest);
+    const Image rest = rest_image(img, s);
+    for (float v : rest.pixels) EXPECT_LE(v, s.threshold * (1 + 1e-6));
+    auto after = mean_radiance(rest);
     for (const RadiancePoint& p : s.hot)
         for (int c = 0; c < 3; ++c) after[c] += p.power[c] / (4 * kPi);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(after[c] / before[c], 1.0, 1e-5);
@@ -47,7 +49,25 @@ TEST(Source, HotSplitRespectsCap) {
     EXPECT_LE(s.hot.size(), 50u);
     const HotSplit none = split_hot(img, 4.0, 0);
     EXPECT_EQ(none.hot.size(), 0u);
-    EXPECT_EQ(none.rest.pixels, img.pixels);
+    EXPECT_EQ(rest_image(img, none).pixels, img.pixels);
+}
+
+TEST(Source, RestBinsWithoutTheRestImage) {
+    // Any sizes, dividing or not: the hot texels' gifts come out of every bin they overlap.
+    for (const auto& [w, h, bw] : {std::tuple{256, 128, 16}, std::tuple{300, 150, 32}, std::tuple{97, 41, 8}}) {
+        const Image img = ref::sun_source(w, h, {0.3, 0.2, 0.5}, 4.0, 5e4f, 0.5f);
+        const HotSplit s = split_hot(img, 16.0, 64);
+        ASSERT_GT(s.texels.size(), 0u);
+        const std::vector<Bin> direct = reduce_to_bins(rest_image(img, s), bw, bw / 2);
+        const std::vector<Bin> fast = reduce_rest_to_bins(img, s, bw, bw / 2);
+        ASSERT_EQ(direct.size(), fast.size());
+        for (size_t b = 0; b < direct.size(); ++b)
+            for (int c = 0; c < 3; ++c) {
+                const double scale = 1e-9 * (1.0 + std::fabs(direct[b].power[c]) + 5e4 * 1e-3);
+                EXPECT_NEAR(fast[b].power[c], direct[b].power[c], scale) << w << " bin " << b;
+                for (int k = 0; k < 3; ++k) EXPECT_NEAR(fast[b].vector[c][k], direct[b].vector[c][k], scale);
+            }
+    }
 }
 
 TEST(Source, BinReductionIsExactForAnySourceSize) {

@@ -5,11 +5,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/irradiance.h"
+#include "iblbake/ibl/parallel.h"
 
 namespace iblbake {
 
@@ -41,8 +44,22 @@ int finest_bin_width(const BakeOptions& o) {
 }
 
 int overflow_guard_exponent(const Image& img) {
-    float m = 0.0f;
-    for (float v : img.pixels) m = std::max(m, v);
+    // After sanitize every value is a finite float >= 0, whose bits order as
+    // unsigned integers do: an integer max the compiler vectorises.
+    std::vector<uint32_t> row_max(img.height, 0u);
+    parallel_for(0, img.height, [&](int y) {
+        const float* row = img.at(0, y);
+        uint32_t m = 0;
+        for (int k = 0; k < 3 * img.width; ++k) {
+            uint32_t bits;
+            std::memcpy(&bits, row + k, sizeof(bits));
+            m = std::max(m, bits);
+        }
+        row_max[y] = m;
+    });
+    const uint32_t top = row_max.empty() ? 0u : *std::max_element(row_max.begin(), row_max.end());
+    float m;
+    std::memcpy(&m, &top, sizeof(m));
     const int e = std::ilogb(std::max(m, 1.0f));
     return e >= 64 ? e - 60 : 0;
 }
@@ -223,7 +240,7 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
 
         if (o.irradiance) {
             report("irradiance", done);
-            VectorCloud cloud = vector_cloud(reduce_to_bins(split.rest, o.irradiance_bins, o.irradiance_bins / 2));
+            VectorCloud cloud = vector_cloud(reduce_rest_to_bins(integrand, split, o.irradiance_bins, o.irradiance_bins / 2));
             for (const RadiancePoint& p : split.hot) cloud.add(p.mean_dir, p.power);
             Cubemap irr(o.irradiance_size);
             irradiance_convolve(irr, cloud, o.irradiance_exact_face);
@@ -249,7 +266,7 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
                 r.specular_base_face = base;
                 Cubemap cube(base);
                 const int ss = std::clamp(int(std::ceil(integrand.width / (kPi * base))), 1, 4);
-                latlong_to_cube(cube, split.rest, ss);  // split.rest is on the integration grid
+                latlong_to_cube(cube, rest_image(integrand, split), ss);  // on the integration grid
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
             } else if (o.resolved_last_level() > 0) {

@@ -1,6 +1,7 @@
 #include "iblbake/ibl/source.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 #include "iblbake/ibl/parallel.h"
@@ -46,6 +47,11 @@ BadInputCounts sanitize(Image& img) {
     const int h = img.height;
     std::vector<BadInputCounts> rows(h);
     parallel_for(0, h, [&](int y) {
+        // Fast path: a vectorised test of the whole row (NaN fails both comparisons).
+        const float* row = img.at(0, y);
+        int any_bad = 0;
+        for (int k = 0; k < 3 * img.width; ++k) any_bad |= !(row[k] >= 0.0f && row[k] <= FLT_MAX);
+        if (!any_bad) return;
         BadInputCounts c;
         for (int x = 0; x < img.width; ++x) {
             float* p = img.at(x, y);
@@ -116,7 +122,6 @@ HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
     HotSplit out;
-    out.rest = img;
 
     // Solid-angle-weighted mean of the largest channel, and the total power.
     std::vector<double> row_mean(h), row_power(h);
@@ -135,12 +140,18 @@ HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
     mean /= 4.0 * kPi;
 
     double threshold = relative_threshold * mean;
-    std::vector<float> above;
-    for (int y = 0; y < h; ++y)
+    // Candidates above the relative threshold, found row by row in parallel
+    // and kept in row-major order (the final threshold can only be higher).
+    std::vector<std::vector<std::pair<int, float>>> row_cands(h);
+    parallel_for(0, h, [&](int y) {
         for (int x = 0; x < w; ++x) {
             const float m = max3(img.at(x, y));
-            if (m > threshold) above.push_back(m);
+            if (m > threshold) row_cands[y].emplace_back(x, m);
         }
+    });
+    std::vector<float> above;
+    for (const auto& rc : row_cands)
+        for (const auto& [x, m] : rc) above.push_back(m);
     if (max_hot <= 0) {
         threshold = above.empty() ? threshold : double(*std::max_element(above.begin(), above.end()));
     } else if (int(above.size()) > max_hot) {
@@ -152,11 +163,11 @@ HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
 
     double hot_power = 0.0;
     for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            float* px = out.rest.at(x, y);
-            const float m = max3(px);
+        for (const auto& [x, m] : row_cands[y]) {
             if (!(m > threshold)) continue;
+            const float* px = img.at(x, y);
             const float scale = float(threshold / m);
+            HotTexel t{x, y, {0, 0, 0}};
             RadiancePoint p;
             const Vec3d d = tab.engine_dir(x, y);
             const Vec3d md = rect_moment(tab.lon[x], tab.lat[y]) / tab.omega[y];
@@ -164,14 +175,24 @@ HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
             p.mean_dir[0] = float(md.x); p.mean_dir[1] = float(md.y); p.mean_dir[2] = float(md.z);
             for (int k = 0; k < 3; ++k) {
                 const float rest = px[k] * scale;
-                p.power[k] = float(double(px[k] - rest) * tab.omega[y]);
+                t.removed[k] = px[k] - rest;
+                p.power[k] = float(double(t.removed[k]) * tab.omega[y]);
                 hot_power += p.power[k];
-                px[k] = rest;
             }
+            out.texels.push_back(t);
             out.hot.push_back(p);
         }
     out.hot_power_fraction = total_power > 0.0 ? hot_power / total_power : 0.0;
     return out;
+}
+
+Image rest_image(const Image& img, const HotSplit& split) {
+    Image rest = img;
+    for (const HotTexel& t : split.texels) {
+        float* px = rest.at(t.x, t.y);
+        for (int k = 0; k < 3; ++k) px[k] -= t.removed[k];
+    }
+    return rest;
 }
 
 void VectorCloud::add(const float dir[3], const float power[3]) {
@@ -220,6 +241,33 @@ std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh) {
     return bins;
 }
 
+std::vector<Bin> reduce_rest_to_bins(const Image& img, const HotSplit& split, int bw, int bh) {
+    std::vector<Bin> bins = reduce_to_bins(img, bw, bh);
+    bw = std::max(1, bw);
+    bh = std::max(1, bh);
+    const std::vector<OverlayPiece> cols = overlay_partitions(img.width, bw);
+    const std::vector<OverlayPiece> rows = overlay_partitions(img.height, bh);
+    for (const HotTexel& t : split.texels)
+        for (const OverlayPiece& rp : rows) {
+            if (rp.a != t.y) continue;
+            const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
+            for (const OverlayPiece& cp : cols) {
+                if (cp.a != t.x) continue;
+                const LonIntegrals lon = lon_integrals(cp.t0, cp.t1);
+                const Vec3d m = rect_moment(lon, lat);
+                const double om = rect_solid_angle(lon, lat);
+                Bin& b = bins[size_t(rp.b) * bw + cp.b];
+                for (int c = 0; c < 3; ++c) {
+                    b.vector[c][0] -= t.removed[c] * m.x;
+                    b.vector[c][1] -= t.removed[c] * m.y;
+                    b.vector[c][2] -= t.removed[c] * m.z;
+                    b.power[c] -= t.removed[c] * om;
+                }
+            }
+        }
+    return bins;
+}
+
 std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
     const int w = bw / 2, h = bh / 2;
     std::vector<Bin> out(size_t(w) * h, Bin{});
@@ -258,15 +306,24 @@ std::array<Sh9, 3> project_sh9(const Image& img) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
     std::vector<std::array<Sh9, 3>> rows(h);
+    // The basis integrals are linear in the longitude integrals, so a row's
+    // projection is sh9_rect_integral of the radiance-weighted sums of them.
     parallel_for(0, h, [&](int y) {
-        std::array<Sh9, 3> acc{};
+        LonIntegrals acc[3] = {};
         for (int x = 0; x < w; ++x) {
-            const Sh9 basis = sh9_rect_integral(tab.lon[x], tab.lat[y]);
+            const LonIntegrals& l = tab.lon[x];
             const float* px = img.at(x, y);
-            for (int c = 0; c < 3; ++c)
-                for (int i = 0; i < 9; ++i) acc[c][i] += basis[i] * px[c];
+            for (int c = 0; c < 3; ++c) {
+                const double v = px[c];
+                acc[c].p0 += v * l.p0;
+                acc[c].pc += v * l.pc;
+                acc[c].ps += v * l.ps;
+                acc[c].pcc += v * l.pcc;
+                acc[c].pss += v * l.pss;
+                acc[c].psc += v * l.psc;
+            }
         }
-        rows[y] = acc;
+        for (int c = 0; c < 3; ++c) rows[y][c] = sh9_rect_integral(acc[c], tab.lat[y]);
     });
     std::array<Sh9, 3> total{};
     for (const auto& r : rows)  // fixed order: the same sum for any thread count
@@ -277,14 +334,17 @@ std::array<Sh9, 3> project_sh9(const Image& img) {
 
 std::array<double, 3> mean_radiance(const Image& img) {
     const int w = img.width, h = img.height;
-    std::array<double, 3> total{};
-    for (int y = 0; y < h; ++y) {
-        const double om = latlong_row_solid_angle(y, w, h);
+    std::vector<std::array<double, 3>> rows(h);
+    parallel_for(0, h, [&](int y) {
         std::array<double, 3> row{};
         for (int x = 0; x < w; ++x)
             for (int c = 0; c < 3; ++c) row[c] += img.at(x, y)[c];
-        for (int c = 0; c < 3; ++c) total[c] += row[c] * om;
-    }
+        const double om = latlong_row_solid_angle(y, w, h);
+        for (int c = 0; c < 3; ++c) rows[y][c] = row[c] * om;
+    });
+    std::array<double, 3> total{};
+    for (const auto& r : rows)  // fixed order
+        for (int c = 0; c < 3; ++c) total[c] += r[c];
     for (double& v : total) v /= 4.0 * kPi;
     return total;
 }

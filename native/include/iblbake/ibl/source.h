@@ -50,14 +50,22 @@ struct RadiancePoint {
 // threshold keeps rest = L * threshold / m and gives the excess to `hot`, a
 // list of points at its centre direction. The threshold is the larger of
 // `relative_threshold` times the solid-angle-weighted mean of m and the value
-// that leaves at most `max_hot` texels above it.
+// that leaves at most `max_hot` texels above it. The rest is not copied:
+// `texels` says what each hot texel gave (rest_image() and
+// reduce_rest_to_bins() apply it).
+struct HotTexel {
+    int x, y;
+    float removed[3];  // radiance moved from the texel to its hot point
+};
 struct HotSplit {
-    Image rest;
-    std::vector<RadiancePoint> hot;
+    std::vector<HotTexel> texels;
+    std::vector<RadiancePoint> hot;  // one per entry of `texels`
     double threshold = 0.0;
     double hot_power_fraction = 0.0;  // hot power / total power (luminance-free: sum of channels)
 };
 HotSplit split_hot(const Image& img, double relative_threshold, int max_hot);
+// The rest image, L minus what the hot texels gave.
+Image rest_image(const Image& img, const HotSplit& split);
 
 // An energy-exact reduction of a lat-long image to a grid of bw x bh bins
 // overlaid on its texels (texels are split where bins cut them, so any source
@@ -72,6 +80,9 @@ struct Bin {
 std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh);
 // The same reduction at bw/2 x bh/2 (even sizes): 2 x 2 blocks summed, exactly.
 std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh);
+// reduce_to_bins(rest_image(img, split), bw, bh) without making the rest image:
+// the hot texels' gifts are taken out of the bins they overlap.
+std::vector<Bin> reduce_rest_to_bins(const Image& img, const HotSplit& split, int bw, int bh);
 
 // "Vector power" of the bins, per channel c: V_c = integral of L_c w dOmega.
 // For a normal n that sees a whole bin from its lit side,
