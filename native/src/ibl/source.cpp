@@ -214,27 +214,51 @@ std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh) {
     // Row pieces of each bin row are contiguous: bin rows are independent work.
     std::vector<size_t> first(bh + 1, rows.size());
     for (size_t k = rows.size(); k-- > 0;) first[rows[k].b] = k;
+    // The moments are linear in the longitude integrals: per row piece, sum the
+    // radiance-weighted longitude integrals of each bin's column pieces, then
+    // multiply by the row piece's latitude integrals once per bin.
+    LonIntegrals zero{};
+    std::vector<LonIntegrals> bin_lon(bw, zero);  // geometry only: the same for every row
+    for (size_t q = 0; q < cols.size(); ++q) {
+        LonIntegrals& a = bin_lon[cols[q].b];
+        a.p0 += lon[q].p0;
+        a.pc += lon[q].pc;
+        a.ps += lon[q].ps;
+    }
     std::vector<Bin> bins(size_t(bw) * bh, Bin{});
     parallel_for(0, bh, [&](int br) {
+        std::vector<LonIntegrals> acc(size_t(bw) * 3);
         for (size_t k = first[br]; k < rows.size() && rows[k].b == br; ++k) {
             const OverlayPiece& rp = rows[k];
             const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
+            std::fill(acc.begin(), acc.end(), zero);
+            const float* row = img.at(0, rp.a);
             for (size_t q = 0; q < cols.size(); ++q) {
                 const OverlayPiece& cp = cols[q];
-                const Vec3d m = rect_moment(lon[q], lat);
-                const double om = rect_solid_angle(lon[q], lat);
-                const float* px = img.at(cp.a, rp.a);
-                Bin& b = bins[size_t(br) * bw + cp.b];
+                const float* px = row + size_t(cp.a) * 3;
+                LonIntegrals* a = &acc[size_t(cp.b) * 3];
                 for (int c = 0; c < 3; ++c) {
-                    b.vector[c][0] += px[c] * m.x;
-                    b.vector[c][1] += px[c] * m.y;
-                    b.vector[c][2] += px[c] * m.z;
-                    b.power[c] += px[c] * om;
+                    const double v = px[c];
+                    a[c].p0 += v * lon[q].p0;
+                    a[c].pc += v * lon[q].pc;
+                    a[c].ps += v * lon[q].ps;
                 }
+            }
+            for (int bx = 0; bx < bw; ++bx) {
+                Bin& b = bins[size_t(br) * bw + bx];
+                for (int c = 0; c < 3; ++c) {
+                    const LonIntegrals& a = acc[size_t(bx) * 3 + c];
+                    const Vec3d m = rect_moment(a, lat);
+                    b.vector[c][0] += m.x;
+                    b.vector[c][1] += m.y;
+                    b.vector[c][2] += m.z;
+                    b.power[c] += rect_solid_angle(a, lat);
+                }
+                const Vec3d m = rect_moment(bin_lon[bx], lat);
                 b.moment[0] += m.x;
                 b.moment[1] += m.y;
                 b.moment[2] += m.z;
-                b.omega += om;
+                b.omega += rect_solid_angle(bin_lon[bx], lat);
             }
         }
     });
