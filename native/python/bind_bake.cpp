@@ -158,6 +158,34 @@ pybind11::dict result_dict(const BakeResult& r) {
     return d;
 }
 
+// bake() and bake_constant()'s out_dir: "" for none; checked with the GIL
+// held, before any work, so that a refused folder costs nothing.
+std::string checked_out_dir(const pybind11::object& out_dir, const Parsed& p) {
+    if (out_dir.is_none()) return {};
+    const std::string out = pybind11::str(out_dir);
+    if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
+    p.wo.validate();
+    io::check_replaceable(out, p.source_path);
+    return out;
+}
+
+// Runs `compute(src) -> BakeResult` without the GIL, writes the files when
+// `out` is given, and returns the result dict with the manifest.
+template <typename Compute>
+pybind11::dict run_bake(Parsed& p, const std::string& out, SourceInfo src, Compute&& compute) {
+    BakeResult r;
+    nlohmann::json manifest;
+    {
+        pybind11::gil_scoped_release release;
+        r = compute(src);
+        manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
+                               : write_bake(r, out, p.bo, p.wo, src);
+    }
+    pybind11::dict d = result_dict(r);
+    d["manifest"] = json_to_py(manifest);
+    return d;
+}
+
 }  // namespace
 
 void bind_bake(pybind11::module_& m) {
@@ -166,33 +194,20 @@ void bind_bake(pybind11::module_& m) {
         [](const pybind11::handle& image, const pybind11::object& out_dir, const pybind11::kwargs& kw) {
             Parsed p = parse_options(kw);
             const PixelArray pixels(image);
-            const std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
-            if (!out_dir.is_none()) {
-                if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
-                p.wo.validate();
-                io::check_replaceable(out, p.source_path);
-            }
+            const std::string out = checked_out_dir(out_dir, p);
             SourceInfo src;
             src.path = p.source_path;
             src.width = pixels.width();
             src.height = pixels.height();
-            BakeResult r;
-            nlohmann::json manifest;
-            {
-                pybind11::gil_scoped_release release;
+            return run_bake(p, out, src, [&](SourceInfo& s) {
                 Image img = pixels.to_image();
                 // Same hash as the CLI when the pixels came from a file.
                 std::error_code ec;
-                src.sha256 = !src.path.empty() && std::filesystem::is_regular_file(src.path, ec)
-                                 ? io::sha256_file(src.path)
-                                 : io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
-                r = compute_bake(std::move(img), p.bo, p.progress, p.lut_cache());
-                manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
-                                       : write_bake(r, out, p.bo, p.wo, src);
-            }
-            pybind11::dict d = result_dict(r);
-            d["manifest"] = json_to_py(manifest);
-            return d;
+                s.sha256 = !s.path.empty() && std::filesystem::is_regular_file(s.path, ec)
+                               ? io::sha256_file(s.path)
+                               : io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
+                return compute_bake(std::move(img), p.bo, p.progress, p.lut_cache());
+            });
         },
         pybind11::arg("image"), pybind11::arg("out_dir") = pybind11::none(),
         R"doc(Bake IBL from a lat-long float32 array (H, W, 3 or 4), rows top to bottom, Blender world space.
@@ -213,27 +228,14 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
         "bake_constant",
         [](const std::array<float, 3>& rgb, const pybind11::object& out_dir, const pybind11::kwargs& kw) {
             Parsed p = parse_options(kw);
-            const std::string out = out_dir.is_none() ? std::string() : std::string(pybind11::str(out_dir));
-            if (!out_dir.is_none()) {
-                if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
-                p.wo.validate();
-                io::check_replaceable(out, p.source_path);
-            }
+            const std::string out = checked_out_dir(out_dir, p);
             SourceInfo src;
             src.path = p.source_path;
             src.width = src.height = 1;
-            BakeResult r;
-            nlohmann::json manifest;
-            {
-                pybind11::gil_scoped_release release;
-                src.sha256 = io::sha256_bytes(rgb.data(), sizeof(rgb));
-                r = compute_constant_bake(rgb, p.bo, p.progress, p.lut_cache());
-                manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
-                                       : write_bake(r, out, p.bo, p.wo, src);
-            }
-            pybind11::dict d = result_dict(r);
-            d["manifest"] = json_to_py(manifest);
-            return d;
+            return run_bake(p, out, src, [&](SourceInfo& s) {
+                s.sha256 = io::sha256_bytes(rgb.data(), sizeof(rgb));
+                return compute_constant_bake(rgb, p.bo, p.progress, p.lut_cache());
+            });
         },
         pybind11::arg("rgb"), pybind11::arg("out_dir") = pybind11::none(),
         "Bake a constant world of radiance rgb in closed form (no integration); same options and result as bake().");

@@ -185,13 +185,20 @@ def case_color(args):
     return bake(os.path.join(WORK, "out"))
 
 
-def case_unchanged(args):
-    """Bake, bake again (skipped), change Strength (baked again)."""
+def baked_field_world(width=64, height=32):
+    """An empty scene whose world is a direction field, baked once into
+    WORK/out: (world, image path, out folder, the bake's result, its manifest text)."""
     empty_scene()
-    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(64, 32))
+    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(width, height))
     world = image_world(path)
     out = os.path.join(WORK, "out")
     first = bake(out)
+    return world, path, out, first, open(os.path.join(out, "manifest.json")).read()
+
+
+def case_unchanged(args):
+    """Bake, bake again (skipped), change Strength (baked again)."""
+    world, _, out, first, _ = baked_field_world()
     mtime = os.stat(os.path.join(out, "manifest.json")).st_mtime_ns
     second = bake(out)
     same_file = os.stat(os.path.join(out, "manifest.json")).st_mtime_ns == mtime
@@ -307,12 +314,8 @@ def case_light_path(args):
 def case_cancel(args):
     """A bake cancelled half-way (the modal operator's background job) leaves
     the earlier bake as it was."""
-    scene = empty_scene()
-    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(128, 64))
-    world = image_world(path)
-    out = os.path.join(WORK, "out")
-    first = bake(out)
-    before = open(os.path.join(out, "manifest.json")).read()
+    world, _, out, first, before = baked_field_world(128, 64)
+    scene = bpy.context.scene
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 3.0
     settings, needs, source, pixels, extra = operators.prepare(bpy.context, scene)
     stages = []
@@ -335,12 +338,7 @@ def case_cancel(args):
 
 def case_missing(args):
     """A world whose image file is gone: a clear error, the earlier bake kept."""
-    empty_scene()
-    path = save_exr(os.path.join(WORK, "field.exr"), direction_field(64, 32))
-    world = image_world(path)
-    out = os.path.join(WORK, "out")
-    first = bake(out)
-    before = open(os.path.join(out, "manifest.json")).read()
+    world, path, out, first, before = baked_field_world()
     os.remove(path)
     img = world.node_tree.nodes["Environment Texture"].image
     img.filepath = os.path.join(WORK, "gone.exr")
