@@ -46,9 +46,129 @@ std::vector<double> azimuth_breaks(double ndotv) {
 
 }  // namespace
 
-LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const LutQuality& q) {
-    if (!(ndotv >= 0.0 && ndotv <= 1.0) || !(roughness >= 0.0 && roughness <= 1.0))
-        throw std::invalid_argument("integrate_brdf: NdotV and roughness must be in [0, 1]");
+namespace {
+
+// cos and sin of t in [0, pi/2] by Taylor series about pi/4 (|x| <= pi/4:
+// error below 1e-14), in plain arithmetic so that loops over many t vectorise.
+inline void sincos_quadrant(double t, double& c, double& sn) {
+    const double x = t - 0.25 * kPi, x2 = x * x;
+    double sx = 1.0 / 1307674368000.0;  // x^15 / 15!, Horner from the top
+    sx = sx * -x2 + 1.0 / 6227020800.0;
+    sx = sx * -x2 + 1.0 / 39916800.0;
+    sx = sx * -x2 + 1.0 / 362880.0;
+    sx = sx * -x2 + 1.0 / 5040.0;
+    sx = sx * -x2 + 1.0 / 120.0;
+    sx = sx * -x2 + 1.0 / 6.0;
+    sx = (sx * -x2 + 1.0) * x;
+    double cx = 1.0 / 20922789888000.0;  // x^16 / 16!
+    cx = cx * -x2 + 1.0 / 87178291200.0;
+    cx = cx * -x2 + 1.0 / 479001600.0;
+    cx = cx * -x2 + 1.0 / 3628800.0;
+    cx = cx * -x2 + 1.0 / 40320.0;
+    cx = cx * -x2 + 1.0 / 720.0;
+    cx = cx * -x2 + 1.0 / 24.0;
+    cx = cx * -x2 + 0.5;
+    cx = cx * -x2 + 1.0;
+    const double r = 0.70710678118654752440;
+    c = r * (cx - sx);
+    sn = r * (cx + sx);
+}
+
+// The quadrature nodes of one (NdotV, roughness), gathered before the
+// integrand runs over them in one loop the compiler vectorises. Head nodes
+// come with cos^2 and sin^2 of theta_h; tail nodes with theta_h itself.
+struct Nodes {
+    std::vector<double> a, b, cphi, w;  // head: a = cos^2, b = sin^2; tail: a = theta, b unused
+    size_t head = 0;                    // the first `head` entries are head nodes
+    void clear() {
+        a.clear();
+        b.clear();
+        cphi.clear();
+        w.clear();
+        head = 0;
+    }
+    void add(double x, double y, double cp, double weight) {
+        a.push_back(x);
+        b.push_back(y);
+        cphi.push_back(cp);
+        w.push_back(weight);
+    }
+};
+
+struct Integrand {
+    double cos_v, sin_v, alpha, a2, k, g1v, lambda_v;
+    bool hc;
+    // (w (1 - Fc) f, w Fc f), f = G (v.h) / (n.v n.h): the BRDF times n.l
+    // over the sampling density of h.
+    template <bool HC>
+    void term(double cos2, double sin2, double cphi, double w, double& ta, double& tb) const {
+        const double cos_h = std::sqrt(cos2), sin_h = std::sqrt(sin2);
+        const double vdoth = sin_v * sin_h * cphi + cos_v * cos_h;
+        const double ndotl = 2.0 * vdoth * cos_h - cos_v;
+        const bool ok = ndotl > 0.0 && vdoth > 0.0;
+        const double nl = ok ? ndotl : 1.0;
+        double g;
+        if constexpr (HC) {
+            const double lambda_l = 0.5 * (std::sqrt(1.0 + a2 * std::fmax(0.0, 1.0 - nl * nl) / (nl * nl)) - 1.0);
+            g = 1.0 / (1.0 + lambda_v + lambda_l);
+        } else {
+            g = g1v * nl / (nl * (1.0 - k) + k);
+        }
+        const double f = (ok ? w : 0.0) * g * vdoth / (cos_v * cos_h);
+        const double m = 1.0 - vdoth, m2 = m * m, fc = m2 * m2 * m;
+        ta = f * (1.0 - fc);
+        tb = f * fc;
+    }
+};
+
+// Sums over the nodes in kLanes fixed lanes (the loops vectorise; the order
+// never depends on threads).
+template <bool HC>
+void sum_nodes(const Nodes& nd, const Integrand& in, double& a_sum, double& b_sum) {
+    constexpr size_t kLanes = 8;
+    double la[kLanes] = {}, lb[kLanes] = {};
+    auto head = [&](size_t q, double& ta, double& tb) {
+        in.template term<HC>(nd.a[q], nd.b[q], nd.cphi[q], nd.w[q], ta, tb);
+    };
+    auto tail = [&](size_t q, double& ta, double& tb) {
+        double c, sn;
+        sincos_quadrant(nd.a[q], c, sn);
+        const double cos2 = c * c, sin2 = sn * sn;
+        in.template term<HC>(cos2, sin2, nd.cphi[q], nd.w[q] * ggx::D(in.alpha, cos2, sin2) * c * sn, ta, tb);
+    };
+    auto run = [&](size_t begin, size_t end, auto&& fn) {
+        size_t p = begin;
+        for (; p + kLanes <= end; p += kLanes)
+            for (size_t l = 0; l < kLanes; ++l) {
+                double ta, tb;
+                fn(p + l, ta, tb);
+                la[l] += ta;
+                lb[l] += tb;
+            }
+        for (; p < end; ++p) {
+            double ta, tb;
+            fn(p, ta, tb);
+            la[0] += ta;
+            lb[0] += tb;
+        }
+    };
+    run(0, nd.head, head);
+    run(nd.head, nd.w.size(), tail);
+    for (size_t l = 0; l < kLanes; ++l) {
+        a_sum += la[l];
+        b_sum += lb[l];
+    }
+}
+
+// The Gauss-Legendre rules on [0, 1], made once per LUT, not per texel.
+struct LutRules {
+    QuadratureRule phi, u;
+    explicit LutRules(const LutQuality& q)
+        : phi(gauss_legendre(q.phi_points, 0.0, 1.0)), u(gauss_legendre(q.u_points, 0.0, 1.0)) {}
+};
+
+LutValue integrate_with(double ndotv, double roughness, LutModel model, const LutRules& rules, Nodes& nodes,
+                        Nodes& tail_nodes) {
     const double alpha = roughness * roughness;
     if (alpha < 1e-9) {
         // The mirror limit: D is a delta at h = n, so l = reflect(v), G = 1.
@@ -59,18 +179,17 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
     const double sin_v = std::sqrt(std::max(0.0, 1.0 - cos_v * cos_v));
     const double k = alpha / 2.0;
     const bool hc = model != LutModel::Karis;
-    const double g1v = ggx::g1_schlick(cos_v, k);
-    const double lambda_v = ggx::smith_lambda(cos_v, alpha);
+    const Integrand in{cos_v, sin_v, alpha, alpha * alpha, k, ggx::g1_schlick(cos_v, k), ggx::smith_lambda(cos_v, alpha), hc};
     // Width in n.l over which G falls to 0 at the n.l = 0 limit: k for
     // Schlick-GGX, about alpha / (2 (1 + Lambda(v))) for height-correlated Smith.
-    const double x_layer = hc ? alpha / (2.0 * (1.0 + lambda_v)) : k;
-    std::vector<double> breaks;
-
-    const QuadratureRule phi_unit = gauss_legendre(q.phi_points, 0.0, 1.0);
-    const QuadratureRule u_unit = gauss_legendre(q.u_points, 0.0, 1.0);
+    const double x_layer = hc ? alpha / (2.0 * (1.0 + in.lambda_v)) : k;
+    const QuadratureRule& phi_unit = rules.phi;
+    const QuadratureRule& u_unit = rules.u;
     const std::vector<double> half = azimuth_breaks(cos_v);
+    double breaks[160];
+    nodes.clear();
+    tail_nodes.clear();
 
-    double a_sum = 0.0, b_sum = 0.0;
     // phi in [0, pi] = [0, pi/2] and its mirror pi - phi; the integrand is even in phi.
     for (int side = 0; side < 2; ++side) {
         for (size_t p = 0; p + 1 < half.size(); ++p) {
@@ -100,58 +219,63 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
                 // height-correlated Smith, where Lambda(v) is large.
                 const double R = std::sqrt(cos_v * cos_v + sin_v * sin_v * cphi * cphi);
                 const double layer = x_layer / (2.0 * std::max(R, 1e-12));
-                breaks.assign({0.0});
-                for (double b = theta0; b < theta_max; b *= 4.0) breaks.push_back(b);
-                for (double d = layer; d < 0.25 * (theta_max - theta0); d *= 4.0) breaks.push_back(theta_max - d);
-                breaks.push_back(theta_max);
-                std::sort(breaks.begin(), breaks.end());
-                for (size_t panel = 0; panel + 1 < breaks.size(); ++panel) {
-                    const double panel_lo = breaks[panel], panel_hi = breaks[panel + 1];
-                    if (!(panel_hi > panel_lo)) continue;
+                int nb = 0;
+                breaks[nb++] = 0.0;
+                for (double b = theta0; b < theta_max && nb < 79; b *= 4.0) breaks[nb++] = b;
+                for (double d = layer; d < 0.25 * (theta_max - theta0) && nb < 158; d *= 4.0)
+                    breaks[nb++] = theta_max - d;
+                breaks[nb++] = theta_max;
+                std::sort(breaks, breaks + nb);
+                for (int panel = 0; panel + 1 < nb; ++panel) {
+                    const double lo = breaks[panel], hi = breaks[panel + 1];
+                    if (!(hi > lo)) continue;
                     for (size_t iu = 0; iu < u_unit.nodes.size(); ++iu) {
-                        double cos2, sin2, w;
                         if (panel == 0) {
                             const double t = t0 * u_unit.nodes[iu];
-                            cos2 = ggx::sample_cos2(alpha, t * t);
-                            sin2 = ggx::sample_sin2(alpha, t * t);
-                            w = t0 * u_unit.weights[iu] * 2.0 * t;
+                            nodes.add(ggx::sample_cos2(alpha, t * t), ggx::sample_sin2(alpha, t * t), cphi,
+                                      wphi * t0 * u_unit.weights[iu] * 2.0 * t);
                         } else {
-                            const double th = panel_lo + (panel_hi - panel_lo) * u_unit.nodes[iu];
-                            const double c = std::cos(th), sn = std::sin(th);
-                            cos2 = c * c;
-                            sin2 = sn * sn;
-                            w = (panel_hi - panel_lo) * u_unit.weights[iu] * 2.0 * kPi * ggx::D(alpha, cos2, sin2) * c * sn;
+                            tail_nodes.add(lo + (hi - lo) * u_unit.nodes[iu], 0.0, cphi,
+                                           wphi * (hi - lo) * u_unit.weights[iu] * 2.0 * kPi);
                         }
-                        const double cos_h = std::sqrt(cos2), sin_h = std::sqrt(sin2);
-                        const double vdoth = sin_v * sin_h * cphi + cos_v * cos_h;
-                        const double ndotl = 2.0 * vdoth * cos_h - cos_v;
-                        if (ndotl <= 0.0 || vdoth <= 0.0) continue;
-                        const double g = hc ? 1.0 / (1.0 + lambda_v + ggx::smith_lambda(ndotl, alpha))
-                                            : g1v * ggx::g1_schlick(ndotl, k);
-                        const double integrand = g * vdoth / (cos_v * cos_h);
-                        const double m = 1.0 - vdoth, m2 = m * m;
-                        const double fc = m2 * m2 * m;
-                        w *= wphi;
-                        a_sum += w * (1.0 - fc) * integrand;
-                        b_sum += w * fc * integrand;
                     }
                 }
             }
         }
     }
+    // Head nodes first, then the tail's.
+    nodes.head = nodes.w.size();
+    nodes.a.insert(nodes.a.end(), tail_nodes.a.begin(), tail_nodes.a.end());
+    nodes.b.insert(nodes.b.end(), tail_nodes.b.begin(), tail_nodes.b.end());
+    nodes.cphi.insert(nodes.cphi.end(), tail_nodes.cphi.begin(), tail_nodes.cphi.end());
+    nodes.w.insert(nodes.w.end(), tail_nodes.w.begin(), tail_nodes.w.end());
+    double a_sum = 0.0, b_sum = 0.0;
+    if (hc) sum_nodes<true>(nodes, in, a_sum, b_sum);
+    else sum_nodes<false>(nodes, in, a_sum, b_sum);
     // du dphi / (2 pi) over phi in [0, 2 pi): the two halves above cover [0, pi].
     LutValue r{a_sum / kPi, b_sum / kPi};
     if (model == LutModel::Multiscatter) r.a = 1.0 - r.b;
     return r;
 }
 
+}  // namespace
+
+LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const LutQuality& q) {
+    if (!(ndotv >= 0.0 && ndotv <= 1.0) || !(roughness >= 0.0 && roughness <= 1.0))
+        throw std::invalid_argument("integrate_brdf: NdotV and roughness must be in [0, 1]");
+    Nodes nodes, tail;
+    return integrate_with(ndotv, roughness, model, LutRules(q), nodes, tail);
+}
+
 Image bake_brdf_lut(int size, LutModel model, const LutQuality& q) {
     if (size < 1) throw std::invalid_argument("LUT size must be >= 1");
     Image lut(size, size);
+    const LutRules rules(q);
     parallel_for(0, size, [&](int j) {
         const double r = (j + 0.5) / size;
+        Nodes nodes, tail;  // one pair per row: the buffers are reused across its texels
         for (int i = 0; i < size; ++i) {
-            const LutValue v = integrate_brdf((i + 0.5) / size, r, model, q);
+            const LutValue v = integrate_with((i + 0.5) / size, r, model, rules, nodes, tail);
             float* p = lut.at(i, j);
             p[0] = float(v.a);
             p[1] = float(v.b);
