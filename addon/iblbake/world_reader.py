@@ -200,17 +200,18 @@ def render_world(world, width: int, samples: int, frame: int = 1):
     """The world as it lights the scene (lighting_copy), as a (width/2,
     width, 3) float32 lat-long (SPEC.md section 1's layout), rendered by
     Cycles in a scratch scene with nothing in it at `frame` (box pixel
-    filter: each pixel is its texel's mean). Blocks until done."""
+    filter: each pixel is its texel's mean). Blocks until done. Returns
+    (pixels, notes on what lighting_copy changed)."""
     scene = bpy.data.scenes.new("iblbake render")
     scene.frame_current = frame
     cam_data = bpy.data.cameras.new("iblbake pano")
     cam = bpy.data.objects.new("iblbake pano", cam_data)
     tmp = tempfile.mkdtemp(prefix="iblbake-render-")
     path = os.path.join(tmp, "world.exr")
-    lit = None
+    lit, notes = None, []
     try:
         if world is not None:
-            lit, _ = lighting_copy(world)
+            lit, notes = lighting_copy(world)
         scene.world = lit
         cam_data.type = "PANO"
         if hasattr(cam_data, "panorama_type"):        # Blender 4+
@@ -241,7 +242,7 @@ def render_world(world, width: int, samples: int, frame: int = 1):
         bpy.ops.render.render(write_still=True, scene=scene.name)
         if not os.path.isfile(path):
             raise WorldError("Cycles did not render the world")
-        return native.load().read_image(path)
+        return native.load().read_image(path), notes
     finally:
         bpy.data.objects.remove(cam)
         bpy.data.cameras.remove(cam_data)
@@ -270,10 +271,9 @@ def read_world(scene, render_width: int, render_samples: int):
         src.render = {"width": render_width, "height": max(1, render_width // 2), "samples": render_samples,
                       "engine": "CYCLES", "camera": "panoramic equirectangular", "denoising": False,
                       "pixel_filter": "box 1 px", "frame": scene.frame_current}
-        if scene.world is not None:
-            notes += lighting_copy_notes(scene.world)
-        src.render["notes"] = notes
-        return src, render_world(scene.world, render_width, render_samples, scene.frame_current)
+        pixels, copy_notes = render_world(scene.world, render_width, render_samples, scene.frame_current)
+        src.render["notes"] = notes + copy_notes
+        return src, pixels
     return src, None
 
 
@@ -288,8 +288,3 @@ def _has_sun_disc(world):
     return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type == "NISHITA" and n.sun_disc and not n.mute
                for n in world.node_tree.nodes)
 
-
-def lighting_copy_notes(world):
-    copy, notes = lighting_copy(world)
-    bpy.data.worlds.remove(copy)
-    return notes

@@ -74,18 +74,16 @@ inline void sincos_quadrant(double t, double& c, double& sn) {
     sn = r * (cx + sx);
 }
 
-// The quadrature nodes of one (NdotV, roughness), gathered before the
-// integrand runs over them in one loop the compiler vectorises. Head nodes
-// come with cos^2 and sin^2 of theta_h; tail nodes with theta_h itself.
+// Quadrature nodes of one (NdotV, roughness), gathered before the integrand
+// runs over them in one loop the compiler vectorises. Head nodes come with
+// cos^2 and sin^2 of theta_h (a, b); tail nodes with theta_h itself (a).
 struct Nodes {
-    std::vector<double> a, b, cphi, w;  // head: a = cos^2, b = sin^2; tail: a = theta, b unused
-    size_t head = 0;                    // the first `head` entries are head nodes
+    std::vector<double> a, b, cphi, w;
     void clear() {
         a.clear();
         b.clear();
         cphi.clear();
         w.clear();
-        head = 0;
     }
     void add(double x, double y, double cp, double weight) {
         a.push_back(x);
@@ -97,7 +95,6 @@ struct Nodes {
 
 struct Integrand {
     double cos_v, sin_v, alpha, a2, k, g1v, lambda_v;
-    bool hc;
     // (w (1 - Fc) f, w Fc f), f = G (v.h) / (n.v n.h): the BRDF times n.l
     // over the sampling density of h.
     template <bool HC>
@@ -124,36 +121,37 @@ struct Integrand {
 // Sums over the nodes in kLanes fixed lanes (the loops vectorise; the order
 // never depends on threads).
 template <bool HC>
-void sum_nodes(const Nodes& nd, const Integrand& in, double& a_sum, double& b_sum) {
+void sum_nodes(const Nodes& head_nodes, const Nodes& tail_nodes, const Integrand& in, double& a_sum,
+               double& b_sum) {
     constexpr size_t kLanes = 8;
     double la[kLanes] = {}, lb[kLanes] = {};
-    auto head = [&](size_t q, double& ta, double& tb) {
+    auto head = [&, &nd = head_nodes](size_t q, double& ta, double& tb) {
         in.template term<HC>(nd.a[q], nd.b[q], nd.cphi[q], nd.w[q], ta, tb);
     };
-    auto tail = [&](size_t q, double& ta, double& tb) {
+    auto tail = [&, &nd = tail_nodes](size_t q, double& ta, double& tb) {
         double c, sn;
         sincos_quadrant(nd.a[q], c, sn);
         const double cos2 = c * c, sin2 = sn * sn;
         in.template term<HC>(cos2, sin2, nd.cphi[q], nd.w[q] * ggx::D(in.alpha, cos2, sin2) * c * sn, ta, tb);
     };
-    auto run = [&](size_t begin, size_t end, auto&& fn) {
-        size_t p = begin;
-        for (; p + kLanes <= end; p += kLanes)
+    auto run = [&](size_t n, auto&& fn) {
+        size_t p = 0;
+        for (; p + kLanes <= n; p += kLanes)
             for (size_t l = 0; l < kLanes; ++l) {
                 double ta, tb;
                 fn(p + l, ta, tb);
                 la[l] += ta;
                 lb[l] += tb;
             }
-        for (; p < end; ++p) {
+        for (; p < n; ++p) {
             double ta, tb;
             fn(p, ta, tb);
             la[0] += ta;
             lb[0] += tb;
         }
     };
-    run(0, nd.head, head);
-    run(nd.head, nd.w.size(), tail);
+    run(head_nodes.w.size(), head);
+    run(tail_nodes.w.size(), tail);
     for (size_t l = 0; l < kLanes; ++l) {
         a_sum += la[l];
         b_sum += lb[l];
@@ -179,7 +177,7 @@ LutValue integrate_with(double ndotv, double roughness, LutModel model, const Lu
     const double sin_v = std::sqrt(std::max(0.0, 1.0 - cos_v * cos_v));
     const double k = alpha / 2.0;
     const bool hc = model != LutModel::Karis;
-    const Integrand in{cos_v, sin_v, alpha, alpha * alpha, k, ggx::g1_schlick(cos_v, k), ggx::smith_lambda(cos_v, alpha), hc};
+    const Integrand in{cos_v, sin_v, alpha, alpha * alpha, k, ggx::g1_schlick(cos_v, k), ggx::smith_lambda(cos_v, alpha)};
     // Width in n.l over which G falls to 0 at the n.l = 0 limit: k for
     // Schlick-GGX, about alpha / (2 (1 + Lambda(v))) for height-correlated Smith.
     const double x_layer = hc ? alpha / (2.0 * (1.0 + in.lambda_v)) : k;
@@ -243,15 +241,9 @@ LutValue integrate_with(double ndotv, double roughness, LutModel model, const Lu
             }
         }
     }
-    // Head nodes first, then the tail's.
-    nodes.head = nodes.w.size();
-    nodes.a.insert(nodes.a.end(), tail_nodes.a.begin(), tail_nodes.a.end());
-    nodes.b.insert(nodes.b.end(), tail_nodes.b.begin(), tail_nodes.b.end());
-    nodes.cphi.insert(nodes.cphi.end(), tail_nodes.cphi.begin(), tail_nodes.cphi.end());
-    nodes.w.insert(nodes.w.end(), tail_nodes.w.begin(), tail_nodes.w.end());
     double a_sum = 0.0, b_sum = 0.0;
-    if (hc) sum_nodes<true>(nodes, in, a_sum, b_sum);
-    else sum_nodes<false>(nodes, in, a_sum, b_sum);
+    if (hc) sum_nodes<true>(nodes, tail_nodes, in, a_sum, b_sum);
+    else sum_nodes<false>(nodes, tail_nodes, in, a_sum, b_sum);
     // du dphi / (2 pi) over phi in [0, 2 pi): the two halves above cover [0, pi].
     LutValue r{a_sum / kPi, b_sum / kPi};
     if (model == LutModel::Multiscatter) r.a = 1.0 - r.b;

@@ -147,32 +147,34 @@ LoadedImage read_image(const std::string& path) {
     return finish(read_with_plugin(path));
 }
 
-void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
-               ExrPixel pixel) {
-    check_size(path, width, height, channels, values.size());
+namespace {
+// Checks the buffer, runs `write`, and names the file in any error.
+template <typename Fn>
+void write_checked(const std::string& path, int width, int height, int channels, size_t values, Fn&& write) {
+    check_size(path, width, height, channels, values);
     try {
-        detail::write_exr_file(path, width, height, channels, values.data(), pixel == ExrPixel::Half);
+        write();
     } catch (const std::exception& e) {
         throw std::runtime_error("cannot write '" + path + "': " + e.what());
     }
+}
+}  // namespace
+
+void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
+               ExrPixel pixel) {
+    write_checked(path, width, height, channels, values.size(), [&] {
+        detail::write_exr_file(path, width, height, channels, values.data(), pixel == ExrPixel::Half);
+    });
 }
 
 void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    check_size(path, width, height, channels, values.size());
-    try {
-        detail::write_png_file(path, width, height, channels, values.data(), 8);
-    } catch (const std::exception& e) {
-        throw std::runtime_error("cannot write '" + path + "': " + e.what());
-    }
+    write_checked(path, width, height, channels, values.size(),
+                  [&] { detail::write_png_file(path, width, height, channels, values.data(), 8); });
 }
 
 void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    check_size(path, width, height, channels, values.size());
-    try {
-        detail::write_png_file(path, width, height, channels, values.data(), 16);
-    } catch (const std::exception& e) {
-        throw std::runtime_error("cannot write '" + path + "': " + e.what());
-    }
+    write_checked(path, width, height, channels, values.size(),
+                  [&] { detail::write_png_file(path, width, height, channels, values.data(), 16); });
 }
 
 }  // namespace iblbake::io
