@@ -18,6 +18,8 @@ class PixelArray {
 public:
     explicit PixelArray(const pybind11::handle& obj);  // raises ValueError on a wrong type, dtype or shape
     Image to_image() const;                             // RGB copy, alpha dropped; GIL not needed
+    bool is_rgb() const { return ch_ == 3; }
+    ImageView view() const { return {data_, w_, h_}; }  // only when is_rgb(); valid while this lives
     int width() const { return w_; }
     int height() const { return h_; }
 

@@ -3,6 +3,8 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <optional>
@@ -36,6 +38,7 @@ struct Parsed {
     WriteOptions wo;
     ProgressFn progress;
     std::string source_path;
+    std::string source_sha256;
     std::optional<FileLutCache> cache;
     LutCache* lut_cache() { return cache ? &*cache : nullptr; }
 };
@@ -105,6 +108,13 @@ Parsed parse_options(const pybind11::dict& kw) {
             if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
             progress = pybind11::reinterpret_borrow<pybind11::object>(v);
         } else if (key == "source_path") out.source_path = v.is_none() ? std::string() : as_str();
+        else if (key == "source_sha256") {
+            out.source_sha256 = v.is_none() ? std::string() : as_str();
+            const bool hex = std::all_of(out.source_sha256.begin(), out.source_sha256.end(),
+                                         [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
+            if (!out.source_sha256.empty() && (out.source_sha256.size() != 64 || !hex))
+                value_error("source_sha256 must be 64 hex digits (the sha256 of the RGB float32 pixels)");
+        }
         else if (key == "manifest_extra") {
             if (!pybind11::isinstance<pybind11::dict>(v)) value_error("manifest_extra must be a dict");
             const std::string text = pybind11::str(pybind11::module_::import("json").attr("dumps")(v));
@@ -197,16 +207,23 @@ void bind_bake(pybind11::module_& m) {
             const std::string out = checked_out_dir(out_dir, p);
             SourceInfo src;
             src.path = p.source_path;
+            src.sha256 = p.source_sha256;
             src.width = pixels.width();
             src.height = pixels.height();
             return run_bake(p, out, src, [&](SourceInfo& s) {
-                Image img = pixels.to_image();
-                // Same hash as the CLI when the pixels came from a file.
-                std::error_code ec;
-                s.sha256 = !s.path.empty() && std::filesystem::is_regular_file(s.path, ec)
-                               ? io::sha256_file(s.path)
-                               : io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
-                return compute_bake(std::move(img), p.bo, p.progress, p.lut_cache());
+                // An RGB array is integrated where it lies; RGBA is copied to RGB.
+                Image rgb;
+                const ImageView view = pixels.is_rgb() ? pixels.view() : ImageView(rgb = pixels.to_image());
+                // The manifest's hash: the caller's, else the file's when the
+                // pixels came from one (as the CLI), else the pixels'. Only a
+                // written bake pays for it (100 MB of pixels take 80 ms).
+                if (s.sha256.empty() && !out.empty()) {
+                    std::error_code ec;
+                    s.sha256 = !s.path.empty() && std::filesystem::is_regular_file(s.path, ec)
+                                   ? io::sha256_file(s.path)
+                                   : io::sha256_bytes(view.data, view.value_count() * sizeof(float));
+                }
+                return compute_bake_view(view, p.bo, p.progress, p.lut_cache());
             });
         },
         pybind11::arg("image"), pybind11::arg("out_dir") = pybind11::none(),
@@ -220,6 +237,8 @@ eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
 specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
 hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
 rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path,
+source_sha256 (the manifest's hash, when the caller has it already; else a written bake hashes the file
+or the pixels, and an unwritten one leaves it null),
 lut_cache_dir (a folder where BRDF LUTs are reused across bakes; none by default), manifest_extra (a dict of
 more top-level manifest keys).
 Raises ValueError on a wrong dtype, shape or option, or on bad pixels with strict=True.)doc");

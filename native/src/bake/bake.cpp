@@ -29,8 +29,6 @@ int pow2_ceil(double x) {
     return p;
 }
 
-// 0 when the largest value is below 2^64, else the exponent e such that
-// dividing by 2^e brings it there.
 // Finest specular bins: small enough for the narrowest lobe (radius <= eps *
 // 2 alpha_1, about 2.2 / (eps alpha_1) bins across), a power of two, at most
 // 4096 across (the reduction holds 128 bytes a bin while it sums: 1 GB there);
@@ -43,24 +41,10 @@ int finest_bin_width(const BakeOptions& o) {
     return std::clamp(pow2_ceil(2.2 / (o.hierarchical.eps * a1)), 2, 4096);
 }
 
-int overflow_guard_exponent(const Image& img) {
-    // After sanitize every value is a finite float >= 0, whose bits order as
-    // unsigned integers do: an integer max the compiler vectorises.
-    std::vector<uint32_t> row_max(img.height, 0u);
-    parallel_for(0, img.height, [&](int y) {
-        const float* row = img.at(0, y);
-        uint32_t m = 0;
-        for (int k = 0; k < 3 * img.width; ++k) {
-            uint32_t bits;
-            std::memcpy(&bits, row + k, sizeof(bits));
-            m = std::max(m, bits);
-        }
-        row_max[y] = m;
-    });
-    const uint32_t top = row_max.empty() ? 0u : *std::max_element(row_max.begin(), row_max.end());
-    float m;
-    std::memcpy(&m, &top, sizeof(m));
-    const int e = std::ilogb(std::max(m, 1.0f));
+// 0 when the largest value is below 2^64, else the exponent e such that
+// dividing by 2^e brings it there.
+int overflow_guard_exponent(float max_value) {
+    const int e = std::ilogb(std::max(max_value, 1.0f));
     return e >= 64 ? e - 60 : 0;
 }
 
@@ -176,9 +160,15 @@ Image compute_lut(int size, LutModel model, const LutQuality& q, int threads) {
     return in_arena(threads, [&] { return bake_brdf_lut(size, model, q); });
 }
 
-BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress, LutCache* lut_cache) {
+namespace {
+
+// The bake of `view`. `owned`, when given, holds the same pixels and may be
+// cleaned in place; otherwise a source that needs cleaning is copied first
+// and a clean one is read where it lies.
+BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const ProgressFn& progress,
+                       LutCache* lut_cache) {
     o.validate();
-    if (source.width < 1 || source.height < 1) throw std::invalid_argument("source image is empty");
+    if (view.width < 1 || view.height < 1) throw std::invalid_argument("source image is empty");
     return in_arena(o.threads, [&] {
         BakeResult r;
         StageClock clock(r);
@@ -193,7 +183,8 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
         auto advance = [&](double w) { done += w / w_total; };
 
         report("reading source", 0.0);
-        r.bad_input = sanitize(source);
+        const SourceScan scan = scan_source(view);
+        r.bad_input = scan.bad;
         if (o.strict && r.bad_input.any())
             throw BadInputError("source has " + std::to_string(r.bad_input.pixels) + " bad pixels (" +
                                 std::to_string(r.bad_input.nan) + " NaN, " + std::to_string(r.bad_input.inf) +
@@ -201,10 +192,24 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
         // Radiance far beyond what any real HDRI holds (finite floats up to
         // 3.4e38) would overflow the float sums: bring the maximum below 2^64
         // by an exact power of two and scale the outputs back at the end.
-        const int scale_exp = overflow_guard_exponent(source);
-        if (scale_exp != 0)
-            for (float& v : source.pixels) v = std::ldexp(v, -scale_exp);
-        r.mean_radiance = mean_radiance(source);
+        const int scale_exp = overflow_guard_exponent(scan.max_value);
+        Image copy;
+        std::vector<float> clean_rows;
+        std::vector<const float*> row_table;
+        if (r.bad_input.any() && scale_exp == 0 && !owned) {
+            view = sanitized_view(view, scan, clean_rows, row_table);  // copies the bad rows alone
+        } else if (r.bad_input.any() || scale_exp != 0) {
+            if (!owned) {
+                copy = Image(view.width, view.height);
+                std::copy(view.data, view.data + view.value_count(), copy.pixels.begin());
+                owned = &copy;
+            }
+            sanitize(*owned);
+            if (scale_exp != 0)
+                for (float& v : owned->pixels) v = std::ldexp(v, -scale_exp);
+            view = *owned;
+        }
+        const ImageView source = view;
         clock.done("sanitize");
 
         // The integrators work on texel-constant radiance; SPEC integrates the
@@ -218,10 +223,12 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
         if (source.width < integration_w || source.height < integration_w / 2)
             resampled = resample_latlong(source, std::max(source.width, integration_w),
                                          std::max(source.height, integration_w / 2));
-        const Image& integrand = resampled.width > 0 ? resampled : source;
+        const ImageView integrand = resampled.width > 0 ? ImageView(resampled) : source;
         r.integration_width = integrand.width;
         r.integration_height = integrand.height;
         r.sh9 = project_sh9(integrand);
+        // The mean is the constant band: L_00 = integral of L / (2 sqrt(pi)).
+        for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
         clock.done("sh9");
 
         const bool need_split =
@@ -327,6 +334,17 @@ BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& pr
         report("done", 1.0);
         return r;
     });
+}
+
+}  // namespace
+
+BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress, LutCache* lut_cache) {
+    return bake_source(source, &source, o, progress, lut_cache);
+}
+
+BakeResult compute_bake_view(ImageView source, const BakeOptions& o, const ProgressFn& progress,
+                             LutCache* lut_cache) {
+    return bake_source(source, nullptr, o, progress, lut_cache);
 }
 
 }  // namespace iblbake

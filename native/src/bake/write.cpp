@@ -64,7 +64,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     m["source"] = {{"path", src.path.empty() ? json(nullptr) : json(src.path)},
                    {"width", src.width},
                    {"height", src.height},
-                   {"sha256", src.sha256},
+                   {"sha256", src.sha256.empty() ? json(nullptr) : json(src.sha256)},
                    {"linearised_from_srgb", src.linearised}};
     m["convention"] = "opengl-y-up";
     m["layout"] = "hcross";

@@ -68,7 +68,7 @@ BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
 
 }  // namespace
 
-BinTree build_bin_tree(const Image& latlong, int finest_w) {
+BinTree build_bin_tree(ImageView latlong, int finest_w) {
     BinTree tree;
     int w = std::max(2, finest_w);
     std::vector<Bin> bins = reduce_to_bins(latlong, w, w / 2);

@@ -105,7 +105,7 @@ CubePyramid build_pyramid(const Cubemap& base) {
     return p;
 }
 
-void latlong_to_cube(Cubemap& dst, const Image& latlong, int supersample) {
+void latlong_to_cube(Cubemap& dst, ImageView latlong, int supersample) {
     const int n = dst.size, ss = std::max(1, supersample);
     parallel_for(0, 6 * n, [&](int row) {
         const int f = row / n, j = row % n;

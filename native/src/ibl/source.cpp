@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
@@ -73,7 +75,71 @@ BadInputCounts sanitize(Image& img) {
     return total;
 }
 
-void latlong_bilinear(const Image& img, const Vec3d& engine_dir, float out[3]) {
+SourceScan scan_source(ImageView img) {
+    const int h = img.height, n = 3 * img.width;
+    std::vector<SourceScan> rows(h);
+    parallel_for(0, h, [&](int y) {
+        const float* row = img.at(0, y);
+        // Fast path, one vectorised unsigned max of the bits: finite values
+        // >= 0 order as their bits do and stay below Inf's 0x7f800000, while
+        // NaN, Inf and anything with the sign bit set (-0 included, which the
+        // slow path then keeps) land at or above it.
+        uint32_t top = 0;
+        for (int k = 0; k < n; ++k) {
+            uint32_t bits;
+            std::memcpy(&bits, row + k, sizeof(bits));
+            top = std::max(top, bits);
+        }
+        SourceScan& s = rows[y];
+        if (top < 0x7f800000u) {
+            std::memcpy(&s.max_value, &top, sizeof(top));
+            return;
+        }
+        for (int x = 0; x < img.width; ++x) {
+            bool bad = false;
+            for (int k = 0; k < 3; ++k) {
+                const float v = row[3 * x + k];
+                if (std::isnan(v)) { ++s.bad.nan; bad = true; }
+                else if (std::isinf(v)) { ++s.bad.inf; bad = true; }
+                else if (v < 0.0f) { ++s.bad.negative; bad = true; }
+                else s.max_value = std::max(s.max_value, v);
+            }
+            s.bad.pixels += bad;
+        }
+    });
+    SourceScan total;
+    for (int y = 0; y < h; ++y) {
+        const SourceScan& s = rows[y];
+        if (s.bad.pixels) total.bad_rows.push_back(y);
+        total.bad.nan += s.bad.nan;
+        total.bad.inf += s.bad.inf;
+        total.bad.negative += s.bad.negative;
+        total.bad.pixels += s.bad.pixels;
+        total.max_value = std::max(total.max_value, s.max_value);
+    }
+    return total;
+}
+
+ImageView sanitized_view(ImageView img, const SourceScan& scan, std::vector<float>& store,
+                         std::vector<const float*>& row_table) {
+    if (scan.bad_rows.empty()) return img;
+    const size_t n = size_t(img.width) * 3;
+    store.assign(scan.bad_rows.size() * n, 0.0f);
+    row_table.resize(img.height);
+    for (int y = 0; y < img.height; ++y) row_table[y] = img.at(0, y);
+    for (size_t k = 0; k < scan.bad_rows.size(); ++k) {
+        const int y = scan.bad_rows[k];
+        float* dst = store.data() + k * n;
+        const float* src = img.at(0, y);
+        for (size_t i = 0; i < n; ++i) dst[i] = src[i] >= 0.0f && src[i] <= FLT_MAX ? src[i] : 0.0f;
+        row_table[y] = dst;
+    }
+    ImageView v = img;
+    v.rows = row_table.data();
+    return v;
+}
+
+void latlong_bilinear(ImageView img, const Vec3d& engine_dir, float out[3]) {
     const LatLongUV uv = direction_to_latlong(engine_to_blender(engine_dir));
     const int w = img.width, h = img.height;
     const double fx = uv.u * w - 0.5, fy = (1.0 - uv.v) * h - 0.5;
@@ -94,7 +160,7 @@ void latlong_bilinear(const Image& img, const Vec3d& engine_dir, float out[3]) {
     }
 }
 
-Image resample_latlong(const Image& img, int w, int h) {
+Image resample_latlong(ImageView img, int w, int h) {
     Image out(w, h);
     parallel_for(0, h, [&](int y) {
         for (int x = 0; x < w; ++x)
@@ -103,7 +169,7 @@ Image resample_latlong(const Image& img, int w, int h) {
     return out;
 }
 
-Image remap_latlong(const Image& img, const std::array<double, 9>& a, const std::array<double, 3>& b) {
+Image remap_latlong(ImageView img, const std::array<double, 9>& a, const std::array<double, 3>& b) {
     const int w = img.width, h = img.height;
     Image out(w, h);
     parallel_for(0, h, [&](int y) {
@@ -118,32 +184,56 @@ Image remap_latlong(const Image& img, const std::array<double, 9>& a, const std:
     return out;
 }
 
-HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
+HotSplit split_hot(ImageView img, double relative_threshold, int max_hot) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
     HotSplit out;
 
-    // Solid-angle-weighted mean of the largest channel, and the total power.
+    // Per row: the sums of the largest channel and of all channels (float
+    // lanes, double across them) and the row's largest channel, in one pass.
+    constexpr int kLanes = 16;
     std::vector<double> row_mean(h), row_power(h);
+    std::vector<float> row_top(h);
     parallel_for(0, h, [&](int y) {
+        const float* row = img.at(0, y);
+        float sm[kLanes] = {}, sp[kLanes] = {}, top[kLanes] = {};
+        const int whole = w / kLanes * kLanes;
+        for (int x0 = 0; x0 < whole; x0 += kLanes)
+            for (int l = 0; l < kLanes; ++l) {
+                const float* px = row + size_t(x0 + l) * 3;
+                const float m = max3(px);
+                sm[l] += m;
+                sp[l] += px[0] + px[1] + px[2];
+                top[l] = std::max(top[l], m);
+            }
+        for (int x = whole; x < w; ++x) {
+            const float* px = row + size_t(x) * 3;
+            sm[0] += max3(px);
+            sp[0] += px[0] + px[1] + px[2];
+            top[0] = std::max(top[0], max3(px));
+        }
         double s = 0.0, p = 0.0;
-        for (int x = 0; x < w; ++x) {
-            const float* px = img.at(x, y);
-            s += max3(px);
-            p += double(px[0]) + px[1] + px[2];
+        float t = 0.0f;
+        for (int l = 0; l < kLanes; ++l) {
+            s += sm[l];
+            p += sp[l];
+            t = std::max(t, top[l]);
         }
         row_mean[y] = s * tab.omega[y];
         row_power[y] = p * tab.omega[y];
+        row_top[y] = t;
     });
     double mean = 0.0, total_power = 0.0;
     for (int y = 0; y < h; ++y) { mean += row_mean[y]; total_power += row_power[y]; }
     mean /= 4.0 * kPi;
 
     double threshold = relative_threshold * mean;
-    // Candidates above the relative threshold, found row by row in parallel
-    // and kept in row-major order (the final threshold can only be higher).
+    // Candidates above the relative threshold, from the rows that hold any,
+    // found in parallel and kept in row-major order (the final threshold can
+    // only be higher).
     std::vector<std::vector<std::pair<int, float>>> row_cands(h);
     parallel_for(0, h, [&](int y) {
+        if (!(row_top[y] > threshold)) return;
         for (int x = 0; x < w; ++x) {
             const float m = max3(img.at(x, y));
             if (m > threshold) row_cands[y].emplace_back(x, m);
@@ -186,8 +276,9 @@ HotSplit split_hot(const Image& img, double relative_threshold, int max_hot) {
     return out;
 }
 
-Image rest_image(const Image& img, const HotSplit& split) {
-    Image rest = img;
+Image rest_image(ImageView img, const HotSplit& split) {
+    Image rest(img.width, img.height);
+    for (int y = 0; y < img.height; ++y) std::copy(img.at(0, y), img.at(0, y) + 3 * img.width, rest.at(0, y));
     for (const HotTexel& t : split.texels) {
         float* px = rest.at(t.x, t.y);
         for (int k = 0; k < 3; ++k) px[k] -= t.removed[k];
@@ -203,7 +294,7 @@ void VectorCloud::add(const float dir[3], const float power[3]) {
     }
 }
 
-std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh) {
+std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh) {
     const int sw = img.width, sh = img.height;
     bw = std::max(1, bw);
     bh = std::max(1, bh);
@@ -214,9 +305,12 @@ std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh) {
     // Row pieces of each bin row are contiguous: bin rows are independent work.
     std::vector<size_t> first(bh + 1, rows.size());
     for (size_t k = rows.size(); k-- > 0;) first[rows[k].b] = k;
-    // The moments are linear in the longitude integrals: per row piece, sum the
-    // radiance-weighted longitude integrals of each bin's column pieces, then
-    // multiply by the row piece's latitude integrals once per bin.
+    // A bin's integrals are sums of v(x, y) lon(x) lat(y) over its pieces
+    // (rect_moment, rect_solid_angle), and only three latitude terms appear
+    // (s0, s1, c0). So per bin row, first sum each pixel column over the bin
+    // row's row pieces against those three terms (contiguous, vectorised),
+    // then weigh the column sums by the longitude integrals once per bin row
+    // instead of once per pixel row.
     LonIntegrals zero{};
     std::vector<LonIntegrals> bin_lon(bw, zero);  // geometry only: the same for every row
     for (size_t q = 0; q < cols.size(); ++q) {
@@ -226,46 +320,50 @@ std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh) {
         a.ps += lon[q].ps;
     }
     std::vector<Bin> bins(size_t(bw) * bh, Bin{});
+    const size_t n = size_t(sw) * 3;
     parallel_for(0, bh, [&](int br) {
-        std::vector<LonIntegrals> acc(size_t(bw) * 3);
+        std::vector<double> col_s0(n, 0.0), col_s1(n, 0.0), col_c0(n, 0.0);
+        LatIntegrals lat_sum{};
         for (size_t k = first[br]; k < rows.size() && rows[k].b == br; ++k) {
             const OverlayPiece& rp = rows[k];
             const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
-            std::fill(acc.begin(), acc.end(), zero);
+            lat_sum.s0 += lat.s0;
+            lat_sum.s1 += lat.s1;
+            lat_sum.c0 += lat.c0;
             const float* row = img.at(0, rp.a);
-            for (size_t q = 0; q < cols.size(); ++q) {
-                const OverlayPiece& cp = cols[q];
-                const float* px = row + size_t(cp.a) * 3;
-                LonIntegrals* a = &acc[size_t(cp.b) * 3];
-                for (int c = 0; c < 3; ++c) {
-                    const double v = px[c];
-                    a[c].p0 += v * lon[q].p0;
-                    a[c].pc += v * lon[q].pc;
-                    a[c].ps += v * lon[q].ps;
-                }
+            for (size_t i = 0; i < n; ++i) {
+                const double v = row[i];
+                col_s0[i] += v * lat.s0;
+                col_s1[i] += v * lat.s1;
+                col_c0[i] += v * lat.c0;
             }
-            for (int bx = 0; bx < bw; ++bx) {
-                Bin& b = bins[size_t(br) * bw + bx];
-                for (int c = 0; c < 3; ++c) {
-                    const LonIntegrals& a = acc[size_t(bx) * 3 + c];
-                    const Vec3d m = rect_moment(a, lat);
-                    b.vector[c][0] += m.x;
-                    b.vector[c][1] += m.y;
-                    b.vector[c][2] += m.z;
-                    b.power[c] += rect_solid_angle(a, lat);
-                }
-                const Vec3d m = rect_moment(bin_lon[bx], lat);
-                b.moment[0] += m.x;
-                b.moment[1] += m.y;
-                b.moment[2] += m.z;
-                b.omega += rect_solid_angle(bin_lon[bx], lat);
+        }
+        Bin* out = &bins[size_t(br) * bw];
+        for (size_t q = 0; q < cols.size(); ++q) {
+            const OverlayPiece& cp = cols[q];
+            const LonIntegrals& l = lon[q];
+            Bin& b = out[cp.b];
+            const size_t i = size_t(cp.a) * 3;
+            for (int c = 0; c < 3; ++c) {
+                b.power[c] += col_s0[i + c] * l.p0;
+                b.vector[c][0] += col_c0[i + c] * l.pc;
+                b.vector[c][1] += col_s1[i + c] * l.p0;
+                b.vector[c][2] -= col_c0[i + c] * l.ps;
             }
+        }
+        for (int bx = 0; bx < bw; ++bx) {
+            Bin& b = out[bx];
+            const Vec3d m = rect_moment(bin_lon[bx], lat_sum);
+            b.moment[0] = m.x;
+            b.moment[1] = m.y;
+            b.moment[2] = m.z;
+            b.omega = rect_solid_angle(bin_lon[bx], lat_sum);
         }
     });
     return bins;
 }
 
-std::vector<Bin> reduce_rest_to_bins(const Image& img, const HotSplit& split, int bw, int bh) {
+std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int bw, int bh) {
     std::vector<Bin> bins = reduce_to_bins(img, bw, bh);
     bw = std::max(1, bw);
     bh = std::max(1, bh);
@@ -326,28 +424,46 @@ VectorCloud vector_cloud(const std::vector<Bin>& bins) {
     return cloud;
 }
 
-std::array<Sh9, 3> project_sh9(const Image& img) {
+std::array<Sh9, 3> project_sh9(ImageView img) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
+    // The six longitude integrals per column, structure-of-arrays.
+    std::vector<double> wl[6];
+    for (auto& v : wl) v.resize(w);
+    for (int x = 0; x < w; ++x) {
+        const LonIntegrals& l = tab.lon[x];
+        wl[0][x] = l.p0; wl[1][x] = l.pc; wl[2][x] = l.ps;
+        wl[3][x] = l.pcc; wl[4][x] = l.pss; wl[5][x] = l.psc;
+    }
     std::vector<std::array<Sh9, 3>> rows(h);
     // The basis integrals are linear in the longitude integrals, so a row's
-    // projection is sh9_rect_integral of the radiance-weighted sums of them.
+    // projection is sh9_rect_integral of the radiance-weighted sums of them:
+    // 18 dot products, summed in kLanes fixed double lanes (vectorised, and
+    // the same order for any thread count).
+    constexpr int kLanes = 8;
     parallel_for(0, h, [&](int y) {
-        LonIntegrals acc[3] = {};
-        for (int x = 0; x < w; ++x) {
-            const LonIntegrals& l = tab.lon[x];
-            const float* px = img.at(x, y);
-            for (int c = 0; c < 3; ++c) {
-                const double v = px[c];
-                acc[c].p0 += v * l.p0;
-                acc[c].pc += v * l.pc;
-                acc[c].ps += v * l.ps;
-                acc[c].pcc += v * l.pcc;
-                acc[c].pss += v * l.pss;
-                acc[c].psc += v * l.psc;
+        const float* row = img.at(0, y);
+        double acc[3][6][kLanes] = {};
+        const int whole = w / kLanes * kLanes;
+        for (int x0 = 0; x0 < whole; x0 += kLanes)
+            for (int l = 0; l < kLanes; ++l) {
+                const float* px = row + size_t(x0 + l) * 3;
+                for (int c = 0; c < 3; ++c) {
+                    const double v = px[c];
+                    for (int k = 0; k < 6; ++k) acc[c][k][l] += v * wl[k][x0 + l];
+                }
             }
+        for (int x = whole; x < w; ++x)
+            for (int c = 0; c < 3; ++c)
+                for (int k = 0; k < 6; ++k) acc[c][k][0] += double(row[3 * x + c]) * wl[k][x];
+        for (int c = 0; c < 3; ++c) {
+            double t[6];
+            for (int k = 0; k < 6; ++k) {
+                t[k] = 0.0;
+                for (int l = 0; l < kLanes; ++l) t[k] += acc[c][k][l];
+            }
+            rows[y][c] = sh9_rect_integral(LonIntegrals{t[0], t[1], t[2], t[3], t[4], t[5]}, tab.lat[y]);
         }
-        for (int c = 0; c < 3; ++c) rows[y][c] = sh9_rect_integral(acc[c], tab.lat[y]);
     });
     std::array<Sh9, 3> total{};
     for (const auto& r : rows)  // fixed order: the same sum for any thread count
@@ -356,7 +472,7 @@ std::array<Sh9, 3> project_sh9(const Image& img) {
     return total;
 }
 
-std::array<double, 3> mean_radiance(const Image& img) {
+std::array<double, 3> mean_radiance(ImageView img) {
     const int w = img.width, h = img.height;
     std::vector<std::array<double, 3>> rows(h);
     parallel_for(0, h, [&](int y) {

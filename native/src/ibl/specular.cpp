@@ -48,7 +48,7 @@ std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQu
     return samples;
 }
 
-void specular_mirror(Cubemap& dst, const Image& latlong) {
+void specular_mirror(Cubemap& dst, ImageView latlong) {
     const int n = dst.size;
     parallel_for(0, 6 * n, [&](int row) {
         const int f = row / n, j = row % n;

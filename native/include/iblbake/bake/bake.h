@@ -99,6 +99,10 @@ class LutCache;
 // from it when present and stored into it when made.
 BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {},
                         LutCache* lut_cache = nullptr);
+// The same bake of pixels owned elsewhere (a numpy array): a clean source is
+// read where it lies, one with bad or overflowing values is copied first.
+BakeResult compute_bake_view(ImageView source, const BakeOptions& options, const ProgressFn& progress = {},
+                             LutCache* lut_cache = nullptr);
 
 // The bake of a constant world of radiance `rgb` (a plain-colour world), in
 // closed form: Irr = Pre = rgb everywhere, SH9 = rgb * 2 sqrt(pi) in L_00

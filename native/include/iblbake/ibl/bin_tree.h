@@ -29,6 +29,6 @@ struct BinTree {
 };
 
 // finest_w: bins across at level 0 (a power of two >= 2).
-BinTree build_bin_tree(const Image& latlong, int finest_w);
+BinTree build_bin_tree(ImageView latlong, int finest_w);
 
 }  // namespace iblbake

@@ -45,6 +45,6 @@ CubePyramid build_pyramid(const Cubemap& base);
 
 // Resample a lat-long image onto a cube: each texel is the mean of ss x ss
 // bilinear lookups of L (SPEC.md section 1) spread over the texel.
-void latlong_to_cube(Cubemap& dst, const Image& latlong, int supersample);
+void latlong_to_cube(Cubemap& dst, ImageView latlong, int supersample);
 
 }  // namespace iblbake

@@ -21,22 +21,38 @@ struct BadInputCounts {
 // Count NaN, +-Inf and negative channel values and set them to 0 (SPEC.md 1).
 BadInputCounts sanitize(Image& img);
 
+// One read-only pass over a source: what sanitize() would count, and the
+// largest value it would keep (finite, >= 0). A clean source then needs no
+// copy at all.
+struct SourceScan {
+    BadInputCounts bad;
+    float max_value = 0.0f;
+    std::vector<int> bad_rows;  // rows holding bad values, ascending
+};
+SourceScan scan_source(ImageView img);
+
+// A view of `img` as sanitize() would leave it, without copying the image:
+// the scan's bad rows are copied into `store` and cleaned there, and the
+// view's row table (`row_table`) points every other row at `img`.
+ImageView sanitized_view(ImageView img, const SourceScan& scan, std::vector<float>& store,
+                         std::vector<const float*>& row_table);
+
 // Bilinear reconstruction L(w) of SPEC.md section 1 (wraps in u, clamps rows),
 // for an engine-space direction.
-void latlong_bilinear(const Image& img, const Vec3d& engine_dir, float out[3]);
+void latlong_bilinear(ImageView img, const Vec3d& engine_dir, float out[3]);
 
 // SPEC's L(w) (bilinear) sampled at the texel centres of a w x h lat-long
 // grid: integrals of the result with texel-constant radiance approach those
 // of the bilinear L as the grid gets finer. Used to bring small sources up
 // to the resolution the integrators need.
-Image resample_latlong(const Image& img, int w, int h);
+Image resample_latlong(ImageView img, int w, int h);
 
 // The lat-long image seen through an affine change of lookup direction, as
 // Blender's Mapping node feeding an Environment Texture does it: texel (x, y)
 // of the result holds L(normalize(A d + b)), d its centre's Blender direction,
 // A row-major 3x3. Same size as `img`; a zero vector reads the centre
 // (u = v = 0.5).
-Image remap_latlong(const Image& img, const std::array<double, 9>& a, const std::array<double, 3>& b);
+Image remap_latlong(ImageView img, const std::array<double, 9>& a, const std::array<double, 3>& b);
 
 // A source texel (or a block of them) as a point: engine direction and power
 // (radiance times solid angle) per channel.
@@ -63,9 +79,9 @@ struct HotSplit {
     double threshold = 0.0;
     double hot_power_fraction = 0.0;  // hot power / total power (luminance-free: sum of channels)
 };
-HotSplit split_hot(const Image& img, double relative_threshold, int max_hot);
+HotSplit split_hot(ImageView img, double relative_threshold, int max_hot);
 // The rest image, L minus what the hot texels gave.
-Image rest_image(const Image& img, const HotSplit& split);
+Image rest_image(ImageView img, const HotSplit& split);
 
 // An energy-exact reduction of a lat-long image to a grid of bw x bh bins
 // overlaid on its texels (texels are split where bins cut them, so any source
@@ -77,12 +93,12 @@ struct Bin {
     double moment[3];     // integral of w dOmega
     double omega;         // solid angle
 };
-std::vector<Bin> reduce_to_bins(const Image& img, int bw, int bh);
+std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh);
 // The same reduction at bw/2 x bh/2 (even sizes): 2 x 2 blocks summed, exactly.
 std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh);
 // reduce_to_bins(rest_image(img, split), bw, bh) without making the rest image:
 // the hot texels' gifts are taken out of the bins they overlap.
-std::vector<Bin> reduce_rest_to_bins(const Image& img, const HotSplit& split, int bw, int bh);
+std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int bw, int bh);
 
 // "Vector power" of the bins, per channel c: V_c = integral of L_c w dOmega.
 // For a normal n that sees a whole bin from its lit side,
@@ -98,9 +114,9 @@ VectorCloud vector_cloud(const std::vector<Bin>& bins);
 
 // Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5):
 // every texel's exact basis integral (texel-constant radiance), in double.
-std::array<Sh9, 3> project_sh9(const Image& img);
+std::array<Sh9, 3> project_sh9(ImageView img);
 
 // Solid-angle-weighted mean radiance per channel.
-std::array<double, 3> mean_radiance(const Image& img);
+std::array<double, 3> mean_radiance(ImageView img);
 
 }  // namespace iblbake

@@ -33,7 +33,7 @@ struct KernelSample {
 std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQuality& q, int base_face);
 
 // Mip 0 (r = 0): the bilinear source lookup L(n) at every texel centre.
-void specular_mirror(Cubemap& dst, const Image& latlong);
+void specular_mirror(Cubemap& dst, ImageView latlong);
 
 // Level for roughness r > 0: filtered importance sampling of `rest` plus the
 // exact kernel sum over the hot points divided by the analytic normaliser.

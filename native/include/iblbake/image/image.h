@@ -17,6 +17,26 @@ struct Image {
     const float* at(int x, int y) const { return pixels.data() + (size_t(y) * width + x) * 3; }
 };
 
+// A read-only view of pixels laid out as Image's (RGB float, rows top to
+// bottom): an Image, or memory another owner keeps alive (a numpy array), so
+// that a source is integrated where it lies instead of being copied. `rows`,
+// when set, gives every row's start (some rows may then live elsewhere, e.g.
+// cleaned copies of the few rows that held bad values); `data` is the
+// contiguous original either way.
+struct ImageView {
+    const float* data = nullptr;
+    int width = 0, height = 0;
+    const float* const* rows = nullptr;
+
+    ImageView() = default;
+    ImageView(const float* d, int w, int h) : data(d), width(w), height(h) {}
+    ImageView(const Image& img) : data(img.pixels.data()), width(img.width), height(img.height) {}  // NOLINT: implicit
+    const float* at(int x, int y) const {
+        return (rows ? rows[y] : data + size_t(y) * width * 3) + size_t(x) * 3;
+    }
+    size_t value_count() const { return size_t(width) * size_t(height) * 3; }
+};
+
 // Six square RGB faces in SPEC.md section 2's order, each face row-major with
 // row j = t from the top. One storage block, one face table (math/cube.h).
 struct Cubemap {
