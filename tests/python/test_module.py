@@ -92,6 +92,39 @@ def test_input_array_is_not_modified():
     assert np.isnan(img[0, 0, 0])
 
 
+def test_bad_rows_cleaned_without_copy_match_a_zeroed_source():
+    # The array is read in place; the rows holding bad values are cleaned in a
+    # side store. The result must be the bake of the zeroed image, bit for bit,
+    # for RGB (in place) and RGBA (copied) arrays alike.
+    rng = np.random.default_rng(3)
+    img = rng.uniform(0.1, 2.0, (64, 128, 3)).astype(np.float32)
+    img[5, 7, 0], img[5, 90, 2], img[40, 3, 1], img[63, 127, 0] = np.nan, np.inf, -2.0, -np.inf
+    zeroed = np.nan_to_num(img, nan=0.0, posinf=0.0, neginf=0.0).clip(min=0.0)
+    opts = dict(face_size=32, irradiance_size=8, lut=False)
+    got, want = ib.bake(img, **opts), ib.bake(zeroed, **opts)
+    rgba = ib.bake(np.concatenate([img, np.ones_like(img[..., :1])], axis=2), **opts)
+    for r in (got, rgba):
+        assert r["bad_input"]["pixels"] == 4
+        assert np.array_equal(r["irradiance"], want["irradiance"])
+        for a, b in zip(r["specular"], want["specular"]):
+            assert np.array_equal(a, b)
+        assert np.array_equal(r["sh9"], want["sh9"])
+    assert np.isnan(img[5, 7, 0]) and img[40, 3, 1] == -2.0  # the caller's array is untouched
+
+
+def test_source_sha256_only_when_written_or_given(tmp_path):
+    img = latlong()
+    assert ib.bake(img, **SMALL)["manifest"]["source"]["sha256"] is None
+    import hashlib
+    want = hashlib.sha256(img.tobytes()).hexdigest()
+    m = ib.bake(img, str(tmp_path / "a"), **SMALL)["manifest"]
+    assert m["source"]["sha256"] == want
+    given = "ab" * 32
+    assert ib.bake(img, str(tmp_path / "b"), source_sha256=given, **SMALL)["manifest"]["source"]["sha256"] == given
+    with pytest.raises(ValueError, match="64 hex digits"):
+        ib.bake(img, source_sha256="xyz", **SMALL)
+
+
 def test_writes_files_atomically_and_returns_manifest(tmp_path):
     out = tmp_path / "bake"
     r = ib.bake(latlong(), str(out), formats=["exr", "png"], **SMALL)

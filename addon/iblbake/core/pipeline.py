@@ -66,9 +66,17 @@ def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
     return opts
 
 
-def content_hash(source: WorldSource, pixels: Optional[np.ndarray], opts: dict, settings: BakeSettings,
+def pixels_sha256(pixels: np.ndarray) -> str:
+    """sha256 of the RGB float32 pixels: the hash iblbake_core.bake() would
+    write for them, computed once here and handed to it (source_sha256)."""
+    a = np.ascontiguousarray(np.asarray(pixels, np.float32)[..., :3])
+    return hashlib.sha256(memoryview(a).cast("B")).hexdigest()
+
+
+def content_hash(source: WorldSource, pixel_digest: Optional[str], opts: dict, settings: BakeSettings,
                  core_version: str) -> str:
-    """sha256 of the radiance the bake reads and of every setting that changes a file."""
+    """sha256 of the radiance the bake reads (pixel_digest, from pixels_sha256,
+    or the plain colour) and of every setting that changes a file."""
     h = hashlib.sha256()
     fields = settings.hash_fields()
     if "png" not in settings.formats:  # PNG-only settings change no file
@@ -81,10 +89,8 @@ def content_hash(source: WorldSource, pixels: Optional[np.ndarray], opts: dict, 
             "options": {k: v for k, v in opts.items() if k not in ("threads", "png_encoding", "exposure")},
             "path": source.path}
     h.update(json.dumps(meta, sort_keys=True, default=str).encode())
-    if pixels is not None:
-        a = np.ascontiguousarray(pixels, dtype=np.float32)
-        h.update(repr(a.shape).encode())
-        h.update(memoryview(a).cast("B"))
+    if pixel_digest is not None:
+        h.update(pixel_digest.encode())
     else:
         h.update(np.asarray(source.color, np.float32).tobytes())
     return h.hexdigest()
@@ -133,7 +139,8 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         os.rmdir(tempfile.mkdtemp(prefix=".iblbake-probe-", dir=parent or "."))
     except OSError as e:
         raise BakeError("cannot write into %s: %s" % (parent or ".", e.strerror or e)) from e
-    digest = content_hash(source, pixels, opts, settings, core.__version__)
+    pixel_digest = pixels_sha256(pixels) if pixels is not None else None
+    digest = content_hash(source, pixel_digest, opts, settings, core.__version__)
     if not settings.force and existing_hash(out_dir) == digest:
         return BakeReport("unchanged", out_dir, digest)
 
@@ -149,7 +156,9 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
     if progress is not None:
         opts["progress"] = progress
     if source.image_path and os.path.isfile(source.image_path):
-        opts["source_path"] = source.image_path
+        opts["source_path"] = source.image_path  # the manifest hashes the file, as the CLI does
+    elif pixel_digest is not None:
+        opts["source_sha256"] = pixel_digest  # hashed once, above
     start = time.perf_counter()
     try:
         if source.path == COLOR:
