@@ -11,7 +11,7 @@ from common import CACHE, iblbake_core, log, median_time, rel_errors, error_stat
 LUT_SIZE = 512
 LUT_HIGH_ORDER = (16, 48)
 LUT_DENSE = (32, 4000, 2000)  # stride, n_theta, n_phi of the independent estimator
-LUT_DEFAULT = (4, 6)
+LUT_DEFAULT = (4, 6, 64)  # phi points, u points, integrated nodes per row (0: every texel)
 
 
 def _f32(path, shape):
@@ -31,7 +31,8 @@ def lut_references():
     """The high-order LUT and the independent dense estimator on every 32nd texel."""
     hi_p, hi_u = LUT_HIGH_ORDER
     high = _cached_npy(f"lut_karis_{LUT_SIZE}_{hi_p}_{hi_u}.npy",
-                       lambda: (log("high-order LUT (once)"), iblbake_core.brdf_lut(LUT_SIZE, "karis", hi_p, hi_u))[1])
+                       lambda: (log("high-order LUT (once)"),
+                                iblbake_core.brdf_lut(LUT_SIZE, "karis", hi_p, hi_u, row_nodes=0))[1])
     stride, nt, nph = LUT_DENSE
 
     def dense():
@@ -54,12 +55,15 @@ def lut_sweep(quick):
     high, dense = lut_references()
     log(f"high-order LUT vs dense estimator: {lut_errors(high, high, dense)['max_abs_err_dense']:.2e}")
     rows = []
-    orders = [(1, 2), (2, 3), (2, 4), (3, 4), (3, 5), (4, 6), (6, 8)] + ([] if quick else [(8, 12)])
-    for p, u in orders:
-        secs, lut = median_time(lambda: iblbake_core.brdf_lut(LUT_SIZE, "karis", p, u), 3)
-        rows.append({"method": "iblbake", "setting": f"phi {p}, u {u}", "seconds": secs,
-                     "default": int((p, u) == LUT_DEFAULT), **lut_errors(lut, high, dense)})
-        log(f"LUT iblbake {p}/{u}: {secs:.3f} s, {rows[-1]['max_abs_err']:.2e}")
+    direct = [(1, 2, 0), (2, 3, 0), (3, 4, 0), (4, 6, 0)] + ([] if quick else [(6, 8, 0), (8, 12, 0)])
+    splined = [(1, 2, 8), (2, 3, 8), (2, 3, 12), (2, 3, 16), (3, 5, 24), (4, 6, 32), (4, 6, 48), (4, 6, 64),
+               (6, 8, 64)]
+    for p, u, k in direct + splined:
+        secs, lut = median_time(lambda: iblbake_core.brdf_lut(LUT_SIZE, "karis", p, u, row_nodes=k), 3)
+        setting = f"phi {p}, u {u}" + (f", {k} nodes/row" if k else ", every texel")
+        rows.append({"method": "iblbake", "setting": setting, "seconds": secs,
+                     "default": int((p, u, k) == LUT_DEFAULT), **lut_errors(lut, high, dense)})
+        log(f"LUT iblbake {setting}: {secs:.3f} s, {rows[-1]['max_abs_err']:.2e}")
     for n in [64, 256, 1024] + ([] if quick else [4096]):
         out = CACHE / "seed_lut.f32"
         secs = run_tool("seed-lut", LUT_SIZE, n, 3 if n <= 1024 else 1, out)

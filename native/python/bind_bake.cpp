@@ -82,6 +82,7 @@ Parsed parse_options(const pybind11::dict& kw) {
         else if (key == "irradiance_exact_face") bo.irradiance_exact_face = as_int();
         else if (key == "lut_phi_points") bo.lut_quality.phi_points = as_int();
         else if (key == "lut_u_points") bo.lut_quality.u_points = as_int();
+        else if (key == "lut_row_nodes") bo.lut_quality.row_nodes = as_int();
         else if (key == "hot_threshold") bo.hot_threshold = as_float();
         else if (key == "max_hot") bo.max_hot = as_int();
         else if (key == "strict") bo.strict = as_bool();
@@ -235,6 +236,7 @@ With out_dir, writes SPEC.md's files there atomically. Always returns a dict wit
 irradiance_size, mip_count, first_level, last_level (bake only those specular levels), lut_size, lut_model, irradiance, specular, lut, specular_method ('hierarchical' or 'fis'),
 eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
 specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
+lut_row_nodes (0: integrate every LUT texel; k >= 4: k integrals per row, spline between),
 hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
 rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path,
 source_sha256 (the manifest's hash, when the caller has it already; else a written bake hashes the file
@@ -278,19 +280,22 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
 
     m.def(
         "brdf_lut",
-        [](int size, const std::string& model, int phi_points, int u_points, int threads) {
+        [](int size, const std::string& model, int phi_points, int u_points, int threads, int row_nodes) {
             if (size < 1 || size > 8192) value_error("size must be in 1..8192");
             if (phi_points < 1 || u_points < 1) value_error("quadrature orders must be >= 1");
+            if (row_nodes != 0 && (row_nodes < 4 || row_nodes > 4096)) value_error("row_nodes must be 0 or in 4..4096");
             const LutModel mdl = lut_model_from_name(model);
             Image lut;
             {
                 pybind11::gil_scoped_release release;
-                lut = compute_lut(size, mdl, LutQuality{phi_points, u_points}, threads);
+                lut = compute_lut(size, mdl, LutQuality{phi_points, u_points, row_nodes}, threads);
             }
             return image_array(lut);
         },
         pybind11::arg("size") = 512, pybind11::arg("model") = "karis", pybind11::arg("phi_points") = 4,
-        pybind11::arg("u_points") = 6, pybind11::arg("threads") = 0, "The BRDF LUT alone, (size, size, 3).");
+        pybind11::arg("u_points") = 6, pybind11::arg("threads") = 0, pybind11::arg("row_nodes") = 64,
+        "The BRDF LUT alone, (size, size, 3). row_nodes: 0 integrates every texel; k >= 4 integrates k nodes per "
+        "row and fills the rest from a cubic spline.");
 
     m.def(
         "integrate_brdf",

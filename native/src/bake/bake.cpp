@@ -129,6 +129,8 @@ void BakeOptions::validate() const {
           "lod_bias must be finite, in -16..16");
     check(lut_quality.phi_points >= 1 && lut_quality.phi_points <= 256, "LUT phi points must be in 1..256");
     check(lut_quality.u_points >= 1 && lut_quality.u_points <= 256, "LUT u points must be in 1..256");
+    check(lut_quality.row_nodes == 0 || (lut_quality.row_nodes >= 4 && lut_quality.row_nodes <= 4096),
+          "LUT row nodes must be 0 (every texel) or in 4..4096");
     check(specular_base_face == 0 || (specular_base_face >= 1 && specular_base_face <= 4096 &&
                                       (specular_base_face & (specular_base_face - 1)) == 0),
           "specular_base_face must be 0 (automatic) or a power of two up to 4096");

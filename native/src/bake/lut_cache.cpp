@@ -12,7 +12,8 @@ namespace fs = std::filesystem;
 
 std::string lut_cache_key(int size, LutModel model, const LutQuality& q) {
     return "brdf_lut-v" + std::to_string(kLutAlgorithmVersion) + "-" + lut_model_name(model) + "-" +
-           std::to_string(size) + "-p" + std::to_string(q.phi_points) + "-u" + std::to_string(q.u_points);
+           std::to_string(size) + "-p" + std::to_string(q.phi_points) + "-u" + std::to_string(q.u_points) +
+           (q.row_nodes >= 4 && q.row_nodes < size ? "-k" + std::to_string(q.row_nodes) : "");
 }
 
 std::optional<Image> FileLutCache::load(const std::string& key) {

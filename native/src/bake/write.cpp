@@ -145,6 +145,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                     {"specular_eps", bo.hierarchical.eps},
                     {"lut_phi_points", bo.lut_quality.phi_points},
                     {"lut_u_points", bo.lut_quality.u_points},
+                    {"lut_row_nodes", bo.lut_quality.row_nodes},
                     {"hot_threshold", bo.hot_threshold},
                     {"max_hot", bo.max_hot},
                     {"first_level", bo.first_level},

@@ -8,6 +8,7 @@
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/ggx.h"
 #include "iblbake/math/quadrature.h"
+#include "iblbake/math/spline.h"
 
 namespace iblbake {
 
@@ -259,10 +260,50 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
     return integrate_with(ndotv, roughness, model, LutRules(q), nodes, tail);
 }
 
+namespace {
+
+// One row of the LUT from q.row_nodes integrals and the spline through them.
+void lut_row_from_nodes(Image& lut, int j, LutModel model, const LutRules& rules, int k,
+                        const std::vector<double>& spline_matrix, Nodes& nodes, Nodes& tail) {
+    const int size = lut.width;
+    const double r = (j + 0.5) / size, shift = 0.02 * r * r;  // alpha / 50
+    const double lo = std::log(0.5 / size + shift), hi = std::log(1.0 - 0.5 / size + shift);
+    std::vector<double> ya(k), yb(k), ma(k, 0.0), mb(k, 0.0);
+    for (int i = 0; i < k; ++i) {
+        const double v = std::clamp(std::exp(lo + (hi - lo) * i / (k - 1)) - shift, 0.0, 1.0);
+        const LutValue val = integrate_with(v, r, model, rules, nodes, tail);
+        ya[i] = val.a;
+        yb[i] = val.b;
+    }
+    for (int i = 0; i < k; ++i)
+        for (int l = 0; l < k; ++l) {
+            ma[i] += spline_matrix[size_t(i) * k + l] * ya[l];
+            mb[i] += spline_matrix[size_t(i) * k + l] * yb[l];
+        }
+    for (int i = 0; i < size; ++i) {
+        const double t = (std::log((i + 0.5) / size + shift) - lo) / (hi - lo) * (k - 1);
+        float* p = lut.at(i, j);
+        p[0] = float(spline_at(ya.data(), ma.data(), k, t));
+        p[1] = float(spline_at(yb.data(), mb.data(), k, t));
+        p[2] = 0.0f;
+    }
+}
+
+}  // namespace
+
 Image bake_brdf_lut(int size, LutModel model, const LutQuality& q) {
     if (size < 1) throw std::invalid_argument("LUT size must be >= 1");
     Image lut(size, size);
     const LutRules rules(q);
+    const int k = q.row_nodes;
+    if (k >= 4 && k < size) {
+        const std::vector<double> spline_matrix = not_a_knot_matrix(k);
+        parallel_for(0, size, [&](int j) {
+            Nodes nodes, tail;
+            lut_row_from_nodes(lut, j, model, rules, k, spline_matrix, nodes, tail);
+        });
+        return lut;
+    }
     parallel_for(0, size, [&](int j) {
         const double r = (j + 0.5) / size;
         Nodes nodes, tail;  // one pair per row: the buffers are reused across its texels

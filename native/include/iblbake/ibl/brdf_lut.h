@@ -13,6 +13,10 @@ LutModel lut_model_from_name(const std::string& name);  // throws std::invalid_a
 struct LutQuality {
     int phi_points = 4;   // Gauss-Legendre nodes per azimuth panel
     int u_points = 6;     // Gauss-Legendre nodes per theta_h panel
+    // 0: integrate every texel. k >= 4: integrate k NdotV nodes per row and
+    // interpolate between them (bake_brdf_lut), k times fewer integrals than
+    // texels across.
+    int row_nodes = 64;
 };
 
 struct LutValue { double a, b; };
@@ -38,6 +42,15 @@ LutValue integrate_brdf(double ndotv, double roughness, LutModel model, const Lu
 
 // N x N LUT: texel (i, j), j from the top: NdotV = (i + .5)/N, r = (j + .5)/N.
 // Red = A, green = B, blue = 0.
+// With q.row_nodes = k (4 <= k < N), each row integrates k nodes spread
+// uniformly in log(NdotV + alpha/50), alpha = r^2, from the first texel
+// centre to the last, and fills its texels from a not-a-knot cubic spline in
+// that variable; every row stays exact in roughness. The logarithm resolves
+// the grazing end, where G turns on (at NdotV ~ alpha/2 for Schlick-GGX,
+// more steeply for height-correlated Smith at high roughness), and the
+// shift keeps the nodes off NdotV = 0 for rough rows. Measured at 512 against
+// high-order LUTs: k = 64 adds nothing visible to the quadrature's 2.7e-5
+// (Karis and height-correlated), k = 12 at low order gives about 1e-2.
 Image bake_brdf_lut(int size, LutModel model, const LutQuality& q = {});
 
 }  // namespace iblbake
