@@ -12,57 +12,71 @@ namespace iblbake {
 
 namespace {
 
-BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
-    BinLevel L;
-    L.w = w;
-    L.h = h;
-    const size_t n = size_t(w) * h;
-    for (auto* v : {&L.px, &L.py, &L.pz, &L.cx, &L.cy, &L.cz, &L.omega, &L.radius}) v->resize(n);
-    for (auto& v : L.power) v.resize(n);
-    // Longitudes at every half bin (the radius test's 3 x 3 points per bin):
-    // cos and sin once per level, not per bin.
-    std::vector<double> cphi(2 * w + 1), sphi(2 * w + 1);
-    for (int k = 0; k <= 2 * w; ++k) {
-        const double phi = (0.5 - 0.5 * k / w) * 2.0 * kPi;
-        cphi[k] = std::cos(phi);
-        sphi[k] = std::sin(phi);
+// Fills a BinLevel row by row from exact bins: centroids, weights, radii.
+class LevelFiller {
+public:
+    LevelFiller(BinLevel& level, int w, int h) : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1) {
+        L_.w = w;
+        L_.h = h;
+        const size_t n = size_t(w) * h;
+        for (auto* v : {&L_.px, &L_.py, &L_.pz, &L_.cx, &L_.cy, &L_.cz, &L_.omega, &L_.radius}) v->resize(n);
+        for (auto& v : L_.power) v.resize(n);
+        // Longitudes at every half bin (the radius test's 3 x 3 points per
+        // bin): cos and sin once per level, not per bin.
+        for (int k = 0; k <= 2 * w; ++k) {
+            const double phi = (0.5 - 0.5 * k / w) * 2.0 * kPi;
+            cphi_[k] = std::cos(phi);
+            sphi_[k] = std::sin(phi);
+        }
     }
-    parallel_for(0, h, [&](int y) {
-        const double v0 = 1.0 - double(y + 1) / h, v1 = 1.0 - double(y) / h;
+
+    void row(int y, const Bin* bins) const {
+        const double v0 = 1.0 - double(y + 1) / h_, v1 = 1.0 - double(y) / h_;
         double clat[3], slat[3];
         for (int r = 0; r < 3; ++r) {
             const double lat = (v0 + (v1 - v0) * 0.5 * r - 0.5) * kPi;
             clat[r] = std::cos(lat);
             slat[r] = std::sin(lat);
         }
-        for (int x = 0; x < w; ++x) {
-            const size_t i = L.index(x, y);
-            const Bin& b = bins[i];
+        for (int x = 0; x < w_; ++x) {
+            const size_t i = L_.index(x, y);
+            const Bin& b = bins[x];
             Vec3d c{b.moment[0], b.moment[1], b.moment[2]};
             const double cl = length(c);
-            c = cl > 0.0 ? c / cl : blender_to_engine(latlong_to_direction((x + 0.5) / w, 0.5 * (v0 + v1)));
+            c = cl > 0.0 ? c / cl : blender_to_engine(latlong_to_direction((x + 0.5) / w_, 0.5 * (v0 + v1)));
             Vec3d p{0, 0, 0};
             for (int ch = 0; ch < 3; ++ch) p += Vec3d{b.vector[ch][0], b.vector[ch][1], b.vector[ch][2]};
             const double pl = length(p);
             p = pl > 0.0 ? p / pl : c;
-            L.cx[i] = float(c.x); L.cy[i] = float(c.y); L.cz[i] = float(c.z);
-            L.px[i] = float(p.x); L.py[i] = float(p.y); L.pz[i] = float(p.z);
+            L_.cx[i] = float(c.x); L_.cy[i] = float(c.y); L_.cz[i] = float(c.z);
+            L_.px[i] = float(p.x); L_.py[i] = float(p.y); L_.pz[i] = float(p.z);
             // Weights shrunk by |first moment| / zeroth moment: a bin used at its
             // (unit) centroid then integrates any kernel linear in n.w exactly,
             // where Omega alone would overweight a wide bin by about radius^2 / 6.
             const double psum = b.power[0] + b.power[1] + b.power[2];
             const double pshrink = psum > 0.0 ? pl / psum : 1.0;
-            for (int ch = 0; ch < 3; ++ch) L.power[ch][i] = float(b.power[ch] * pshrink);
-            L.omega[i] = float(cl);
+            for (int ch = 0; ch < 3; ++ch) L_.power[ch][i] = float(b.power[ch] * pshrink);
+            L_.omega[i] = float(cl);
             double min_cos = 1.0;
             for (int k = 0; k < 9; ++k) {
                 const int col = 2 * x + k % 3, r = k / 3;
-                const Vec3d blender{clat[r] * cphi[col], clat[r] * sphi[col], slat[r]};
+                const Vec3d blender{clat[r] * cphi_[col], clat[r] * sphi_[col], slat[r]};
                 min_cos = std::min(min_cos, dot(c, blender_to_engine(blender)));
             }
-            L.radius[i] = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
+            L_.radius[i] = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
         }
-    });
+    }
+
+private:
+    BinLevel& L_;
+    int w_, h_;
+    std::vector<double> cphi_, sphi_;
+};
+
+BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
+    BinLevel L;
+    const LevelFiller fill(L, w, h);
+    parallel_for(0, h, [&](int y) { fill.row(y, &bins[size_t(y) * w]); });
     return L;
 }
 
@@ -71,7 +85,32 @@ BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
 BinTree build_bin_tree(ImageView latlong, int finest_w) {
     BinTree tree;
     int w = std::max(2, finest_w);
-    std::vector<Bin> bins = reduce_to_bins(latlong, w, w / 2);
+    std::vector<Bin> bins;
+    if (w == 2) {
+        bins = reduce_to_bins(latlong, 2, 1);
+    } else {
+        // Level 0 straight from the reduction, two bin rows at a time: only
+        // the 2x-coarser exact bins are kept (a quarter of the memory, and no
+        // full-size array to fill and page in).
+        const BinReduction red(latlong, w, w / 2);
+        tree.levels.emplace_back();
+        const LevelFiller fill(tree.levels.back(), w, w / 2);
+        const int cw = w / 2, ch = w / 4;
+        bins.assign(size_t(cw) * ch, Bin{});
+        parallel_for(0, ch, [&](int y) {
+            thread_local std::vector<Bin> pair;
+            pair.resize(2 * size_t(w));
+            red.row(2 * y, pair.data());
+            red.row(2 * y + 1, pair.data() + w);
+            fill.row(2 * y, pair.data());
+            fill.row(2 * y + 1, pair.data() + w);
+            Bin* out = &bins[size_t(y) * cw];
+            for (int x = 0; x < cw; ++x)
+                for (int dy = 0; dy < 2; ++dy)
+                    for (int dx = 0; dx < 2; ++dx) add_bins(out[x], pair[size_t(dy) * w + 2 * x + dx]);
+        });
+        w = cw;
+    }
     while (true) {
         tree.levels.push_back(make_level(bins, w, w / 2));
         if (w <= 2) break;

@@ -294,73 +294,88 @@ void VectorCloud::add(const float dir[3], const float power[3]) {
     }
 }
 
-std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh) {
-    const int sw = img.width, sh = img.height;
-    bw = std::max(1, bw);
-    bh = std::max(1, bh);
-    const std::vector<OverlayPiece> cols = overlay_partitions(sw, bw);
-    const std::vector<OverlayPiece> rows = overlay_partitions(sh, bh);  // t = 1 - v, from the top
-    std::vector<LonIntegrals> lon(cols.size());
-    for (size_t k = 0; k < cols.size(); ++k) lon[k] = lon_integrals(cols[k].t0, cols[k].t1);
+BinReduction::BinReduction(ImageView img, int bw, int bh)
+    : img_(img), bw_(std::max(1, bw)), bh_(std::max(1, bh)) {
+    cols_ = overlay_partitions(img.width, bw_);
+    rows_ = overlay_partitions(img.height, bh_);  // t = 1 - v, from the top
+    lon_.resize(cols_.size());
+    for (size_t k = 0; k < cols_.size(); ++k) lon_[k] = lon_integrals(cols_[k].t0, cols_[k].t1);
     // Row pieces of each bin row are contiguous: bin rows are independent work.
-    std::vector<size_t> first(bh + 1, rows.size());
-    for (size_t k = rows.size(); k-- > 0;) first[rows[k].b] = k;
-    // A bin's integrals are sums of v(x, y) lon(x) lat(y) over its pieces
-    // (rect_moment, rect_solid_angle), and only three latitude terms appear
-    // (s0, s1, c0). So per bin row, first sum each pixel column over the bin
-    // row's row pieces against those three terms (contiguous, vectorised),
-    // then weigh the column sums by the longitude integrals once per bin row
-    // instead of once per pixel row.
-    LonIntegrals zero{};
-    std::vector<LonIntegrals> bin_lon(bw, zero);  // geometry only: the same for every row
-    for (size_t q = 0; q < cols.size(); ++q) {
-        LonIntegrals& a = bin_lon[cols[q].b];
-        a.p0 += lon[q].p0;
-        a.pc += lon[q].pc;
-        a.ps += lon[q].ps;
+    first_.assign(bh_ + 1, rows_.size());
+    for (size_t k = rows_.size(); k-- > 0;) first_[rows_[k].b] = k;
+    bin_lon_.assign(bw_, LonIntegrals{});  // geometry only: the same for every row
+    for (size_t q = 0; q < cols_.size(); ++q) {
+        LonIntegrals& a = bin_lon_[cols_[q].b];
+        a.p0 += lon_[q].p0;
+        a.pc += lon_[q].pc;
+        a.ps += lon_[q].ps;
     }
-    std::vector<Bin> bins(size_t(bw) * bh, Bin{});
-    const size_t n = size_t(sw) * 3;
-    parallel_for(0, bh, [&](int br) {
-        std::vector<double> col_s0(n, 0.0), col_s1(n, 0.0), col_c0(n, 0.0);
-        LatIntegrals lat_sum{};
-        for (size_t k = first[br]; k < rows.size() && rows[k].b == br; ++k) {
-            const OverlayPiece& rp = rows[k];
-            const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
-            lat_sum.s0 += lat.s0;
-            lat_sum.s1 += lat.s1;
-            lat_sum.c0 += lat.c0;
-            const float* row = img.at(0, rp.a);
-            for (size_t i = 0; i < n; ++i) {
-                const double v = row[i];
-                col_s0[i] += v * lat.s0;
-                col_s1[i] += v * lat.s1;
-                col_c0[i] += v * lat.c0;
-            }
+}
+
+// A bin's integrals are sums of v(x, y) lon(x) lat(y) over its pieces
+// (rect_moment, rect_solid_angle), and only three latitude terms appear (s0,
+// s1, c0). So first sum each pixel column over the bin row's row pieces
+// against those three terms (contiguous, vectorised), then weigh the column
+// sums by the longitude integrals once per bin row instead of once per pixel row.
+void BinReduction::row(int br, Bin* out) const {
+    const size_t n = size_t(img_.width) * 3;
+    thread_local std::vector<double> col;
+    col.assign(3 * n, 0.0);
+    double* col_s0 = col.data();
+    double* col_s1 = col_s0 + n;
+    double* col_c0 = col_s1 + n;
+    LatIntegrals lat_sum{};
+    for (size_t k = first_[br]; k < rows_.size() && rows_[k].b == br; ++k) {
+        const OverlayPiece& rp = rows_[k];
+        const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
+        lat_sum.s0 += lat.s0;
+        lat_sum.s1 += lat.s1;
+        lat_sum.c0 += lat.c0;
+        const float* src = img_.at(0, rp.a);
+        for (size_t i = 0; i < n; ++i) {
+            const double v = src[i];
+            col_s0[i] += v * lat.s0;
+            col_s1[i] += v * lat.s1;
+            col_c0[i] += v * lat.c0;
         }
-        Bin* out = &bins[size_t(br) * bw];
-        for (size_t q = 0; q < cols.size(); ++q) {
-            const OverlayPiece& cp = cols[q];
-            const LonIntegrals& l = lon[q];
-            Bin& b = out[cp.b];
-            const size_t i = size_t(cp.a) * 3;
-            for (int c = 0; c < 3; ++c) {
-                b.power[c] += col_s0[i + c] * l.p0;
-                b.vector[c][0] += col_c0[i + c] * l.pc;
-                b.vector[c][1] += col_s1[i + c] * l.p0;
-                b.vector[c][2] -= col_c0[i + c] * l.ps;
-            }
+    }
+    std::fill(out, out + bw_, Bin{});
+    for (size_t q = 0; q < cols_.size(); ++q) {
+        const OverlayPiece& cp = cols_[q];
+        const LonIntegrals& l = lon_[q];
+        Bin& b = out[cp.b];
+        const size_t i = size_t(cp.a) * 3;
+        for (int c = 0; c < 3; ++c) {
+            b.power[c] += col_s0[i + c] * l.p0;
+            b.vector[c][0] += col_c0[i + c] * l.pc;
+            b.vector[c][1] += col_s1[i + c] * l.p0;
+            b.vector[c][2] -= col_c0[i + c] * l.ps;
         }
-        for (int bx = 0; bx < bw; ++bx) {
-            Bin& b = out[bx];
-            const Vec3d m = rect_moment(bin_lon[bx], lat_sum);
-            b.moment[0] = m.x;
-            b.moment[1] = m.y;
-            b.moment[2] = m.z;
-            b.omega = rect_solid_angle(bin_lon[bx], lat_sum);
-        }
-    });
+    }
+    for (int bx = 0; bx < bw_; ++bx) {
+        Bin& b = out[bx];
+        const Vec3d m = rect_moment(bin_lon_[bx], lat_sum);
+        b.moment[0] = m.x;
+        b.moment[1] = m.y;
+        b.moment[2] = m.z;
+        b.omega = rect_solid_angle(bin_lon_[bx], lat_sum);
+    }
+}
+
+std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh) {
+    const BinReduction red(img, bw, bh);
+    std::vector<Bin> bins(size_t(red.width()) * red.height());
+    parallel_for(0, red.height(), [&](int br) { red.row(br, &bins[size_t(br) * red.width()]); });
     return bins;
+}
+
+void add_bins(Bin& o, const Bin& b) {
+    for (int c = 0; c < 3; ++c) {
+        for (int k = 0; k < 3; ++k) o.vector[c][k] += b.vector[c][k];
+        o.power[c] += b.power[c];
+        o.moment[c] += b.moment[c];
+    }
+    o.omega += b.omega;
 }
 
 std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int bw, int bh) {
@@ -394,19 +409,10 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
     const int w = bw / 2, h = bh / 2;
     std::vector<Bin> out(size_t(w) * h, Bin{});
     parallel_for(0, h, [&](int y) {
-        for (int x = 0; x < w; ++x) {
-            Bin& o = out[size_t(y) * w + x];
+        for (int x = 0; x < w; ++x)
             for (int dy = 0; dy < 2; ++dy)
-                for (int dx = 0; dx < 2; ++dx) {
-                    const Bin& b = bins[size_t(2 * y + dy) * bw + 2 * x + dx];
-                    for (int c = 0; c < 3; ++c) {
-                        for (int k = 0; k < 3; ++k) o.vector[c][k] += b.vector[c][k];
-                        o.power[c] += b.power[c];
-                        o.moment[c] += b.moment[c];
-                    }
-                    o.omega += b.omega;
-                }
-        }
+                for (int dx = 0; dx < 2; ++dx)
+                    add_bins(out[size_t(y) * w + x], bins[size_t(2 * y + dy) * bw + 2 * x + dx]);
     });
     return out;
 }

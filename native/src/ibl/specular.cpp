@@ -127,9 +127,10 @@ void kernel_sums(const BinSoA& b, size_t count, float a2, const Vec3& n, double 
             for (size_t l = 0; l < kLanes; ++l) {
                 const size_t q = p + l;
                 const float dx = n.x - b.px[q], dy = n.y - b.py[q], dz = n.z - b.pz[q];
-                const float kp = ggx::prefilter_kernel_shape(a2, 0.5f * (dx * dx + dy * dy + dz * dz));
                 const float ex = n.x - b.cx[q], ey = n.y - b.cy[q], ez = n.z - b.cz[q];
-                const float kc = ggx::prefilter_kernel_shape(a2, 0.5f * (ex * ex + ey * ey + ez * ez));
+                float kp, kc;
+                ggx::prefilter_kernel_shape2(a2, 0.5f * (dx * dx + dy * dy + dz * dz),
+                                             0.5f * (ex * ex + ey * ey + ez * ez), kp, kc);
                 s0[l] += kp * b.p0[q];
                 s1[l] += kp * b.p1[q];
                 s2[l] += kp * b.p2[q];

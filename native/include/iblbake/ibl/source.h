@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "iblbake/image/image.h"
+#include "iblbake/math/latlong.h"
 #include "iblbake/math/sh.h"
 #include "iblbake/math/vec3.h"
 
@@ -94,6 +95,24 @@ struct Bin {
     double omega;         // solid angle
 };
 std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh);
+// The same reduction one bin row at a time: rows are independent, so a caller
+// can run them in parallel and keep only what it needs of each.
+class BinReduction {
+public:
+    BinReduction(ImageView img, int bw, int bh);
+    int width() const { return bw_; }
+    int height() const { return bh_; }
+    void row(int br, Bin* out) const;  // bins (0..bw-1, br), overwritten
+
+private:
+    ImageView img_;
+    int bw_, bh_;
+    std::vector<OverlayPiece> cols_, rows_;
+    std::vector<LonIntegrals> lon_, bin_lon_;
+    std::vector<size_t> first_;
+};
+// o += b, every integral.
+void add_bins(Bin& o, const Bin& b);
 // The same reduction at bw/2 x bh/2 (even sizes): 2 x 2 blocks summed, exactly.
 std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh);
 // reduce_to_bins(rest_image(img, split), bw, bh) without making the rest image:
