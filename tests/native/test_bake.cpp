@@ -201,12 +201,19 @@ TEST(LutCache, SecondBakeReadsTheFirstOnesLut) {
     o.lut_model = LutModel::HeightCorrelated;
     EXPECT_FALSE(compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache).lut_from_cache);
     // A damaged entry is a miss and gets replaced.
-    const fs::path entry = dir / "cache" / (lut_cache_key(o.lut_size, o.lut_model, o.lut_quality) + ".exr");
+    const fs::path entry = dir / "cache" / (lut_cache_key(o.lut_size, o.lut_model, o.lut_quality) + ".lut");
     ASSERT_TRUE(fs::exists(entry));
+    const auto good_size = fs::file_size(entry);
     { std::ofstream f(entry, std::ios::trunc); f << "junk"; }
     const BakeResult c = compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache);
     EXPECT_FALSE(c.lut_from_cache);
     EXPECT_TRUE(compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache).lut_from_cache);
+    // A truncated or over-long entry is a miss too.
+    for (auto size : {good_size - 4, good_size + 4}) {
+        fs::resize_file(entry, size);
+        EXPECT_FALSE(compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache).lut_from_cache) << size;
+        EXPECT_EQ(fs::file_size(entry), good_size);
+    }
 }
 
 TEST(Io, ReadsHdrPngAndGreyImages) {

@@ -23,8 +23,9 @@ public:
     virtual void store(const std::string& key, const Image& lut) = 0;
 };
 
-// Full-float EXR files in a folder; writes are atomic (temporary file, then
-// rename), unreadable entries count as misses.
+// Raw float files (<key>.lut) in a folder, read back in one call; writes are
+// atomic (temporary file, then rename); unreadable, truncated or foreign
+// entries count as misses.
 class FileLutCache : public LutCache {
 public:
     explicit FileLutCache(std::filesystem::path dir) : dir_(std::move(dir)) {}
