@@ -247,9 +247,26 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
 
         auto skip = [&](const char* what) { r.skipped.push_back(skip_reason(o, what, "disabled by option")); };
 
+        // The hierarchical specular's bin tree, built first: its coarser exact
+        // bins are the irradiance's too, which then needs no pass of its own.
+        const bool fis = o.specular_method == SpecularMethod::Fis;
+        const bool need_tree = o.specular && !fis && mips > 1 && o.resolved_last_level() > 0;
+        const bool irr_from_tree = o.irradiance && need_tree && o.irradiance_bins <= finest_bins / 2;
+        BinTree tree;
+        std::vector<Bin> irr_bins;
+        if (need_tree) {
+            report("specular", done);
+            r.specular_base_face = finest_bins;
+            tree = build_bin_tree(integrand, finest_bins, irr_from_tree ? &irr_bins : nullptr, o.irradiance_bins);
+            clock.done("bin_tree");
+        }
+
         if (o.irradiance) {
             report("irradiance", done);
-            VectorCloud cloud = vector_cloud(reduce_rest_to_bins(integrand, split, o.irradiance_bins, o.irradiance_bins / 2));
+            const int bw = o.irradiance_bins, bh = o.irradiance_bins / 2;
+            if (irr_from_tree) remove_hot(irr_bins, bw, bh, integrand.width, integrand.height, split);
+            else irr_bins = reduce_rest_to_bins(integrand, split, bw, bh);
+            VectorCloud cloud = vector_cloud(irr_bins);
             for (const RadiancePoint& p : split.hot) cloud.add(p.mean_dir, p.power);
             Cubemap irr(o.irradiance_size);
             irradiance_convolve(irr, cloud, o.irradiance_exact_face);
@@ -262,9 +279,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
 
         if (o.specular) {
             report("specular", done);
-            const bool fis = o.specular_method == SpecularMethod::Fis;
             CubePyramid pyramid;
-            BinTree tree;
             if (mips > 1 && fis) {
                 // The rest cube must resolve the narrowest lobe (about alpha_1
                 // radians wide) but need not be finer than the source.
@@ -278,10 +293,6 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 latlong_to_cube(cube, rest_image(integrand, split), ss);  // on the integration grid
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
-            } else if (o.resolved_last_level() > 0) {
-                r.specular_base_face = finest_bins;
-                tree = build_bin_tree(integrand, finest_bins);
-                clock.done("bin_tree");
             }
             const int first = o.first_level, last = o.resolved_last_level();
             for (int m = first; m <= last; ++m) {

@@ -82,7 +82,7 @@ BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
 
 }  // namespace
 
-BinTree build_bin_tree(ImageView latlong, int finest_w) {
+BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, int keep_w) {
     BinTree tree;
     int w = std::max(2, finest_w);
     std::vector<Bin> bins;
@@ -112,6 +112,7 @@ BinTree build_bin_tree(ImageView latlong, int finest_w) {
         w = cw;
     }
     while (true) {
+        if (keep && w == keep_w) *keep = bins;
         tree.levels.push_back(make_level(bins, w, w / 2));
         if (w <= 2) break;
         bins = coarsen_bins(bins, w, w / 2);

@@ -380,10 +380,15 @@ void add_bins(Bin& o, const Bin& b) {
 
 std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int bw, int bh) {
     std::vector<Bin> bins = reduce_to_bins(img, bw, bh);
+    remove_hot(bins, bw, bh, img.width, img.height, split);
+    return bins;
+}
+
+void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, const HotSplit& split) {
     bw = std::max(1, bw);
     bh = std::max(1, bh);
-    const std::vector<OverlayPiece> cols = overlay_partitions(img.width, bw);
-    const std::vector<OverlayPiece> rows = overlay_partitions(img.height, bh);
+    const std::vector<OverlayPiece> cols = overlay_partitions(img_w, bw);
+    const std::vector<OverlayPiece> rows = overlay_partitions(img_h, bh);
     for (const HotTexel& t : split.texels)
         for (const OverlayPiece& rp : rows) {
             if (rp.a != t.y) continue;
@@ -402,7 +407,6 @@ std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int b
                 }
             }
         }
-    return bins;
 }
 
 std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {

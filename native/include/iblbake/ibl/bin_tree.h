@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "iblbake/image/image.h"
+#include "iblbake/ibl/source.h"
 
 namespace iblbake {
 
@@ -28,7 +29,9 @@ struct BinTree {
     std::vector<BinLevel> levels;  // [0] finest
 };
 
-// finest_w: bins across at level 0 (a power of two >= 2).
-BinTree build_bin_tree(ImageView latlong, int finest_w);
+// finest_w: bins across at level 0 (a power of two >= 2). With `keep`, the
+// exact bins (ibl/source.h) at keep_w across (a power of two in 2..finest_w/2)
+// are copied there on the way: another reduction of the same image for free.
+BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep = nullptr, int keep_w = 0);
 
 }  // namespace iblbake

@@ -118,6 +118,8 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh);
 // reduce_to_bins(rest_image(img, split), bw, bh) without making the rest image:
 // the hot texels' gifts are taken out of the bins they overlap.
 std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int bw, int bh);
+// Takes the hot texels' gifts out of bw x bh bins of an img_w x img_h image.
+void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, const HotSplit& split);
 
 // "Vector power" of the bins, per channel c: V_c = integral of L_c w dOmega.
 // For a normal n that sees a whole bin from its lit side,
