@@ -8,9 +8,13 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfRgbaFile.h>
 #include <OpenEXR/ImfTestFile.h>
+#include <OpenEXR/ImfThreading.h>
 #include <Imath/half.h>
 
+#include <algorithm>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 
 #include "raw_pixels.h"
 
@@ -18,10 +22,26 @@ namespace iblbake::io::detail {
 
 bool is_exr(const std::string& path) { return Imf::isOpenExrFile(path.c_str()); }
 
+namespace {
+
+// OpenEXR's own thread pool, one thread per core: line blocks of a file are
+// decompressed in parallel (an 8K zip EXR reads about twice as fast).
+int exr_threads() {
+    static std::once_flag once;
+    static int n = 1;
+    std::call_once(once, [] {
+        n = int(std::max(1u, std::thread::hardware_concurrency()));
+        Imf::setGlobalThreadCount(n);
+    });
+    return n;
+}
+
+}  // namespace
+
 RawPixels read_exr(const std::string& path) {
     RawPixels out;
     out.format = "openexr";
-    Imf::InputFile in(path.c_str());
+    Imf::InputFile in(path.c_str(), exr_threads());
     const Imf::Header& h = in.header();
     const Imath::Box2i dw = h.dataWindow(), disp = h.displayWindow();
     out.width = dw.max.x - dw.min.x + 1;
@@ -34,7 +54,7 @@ RawPixels read_exr(const std::string& path) {
     const Imf::ChannelList& ch = h.channels();
     // Luminance-chroma files need OpenEXR's RGBA conversion (half precision).
     if (ch.findChannel("RY") || ch.findChannel("BY")) {
-        Imf::RgbaInputFile rgba(path.c_str());
+        Imf::RgbaInputFile rgba(path.c_str(), exr_threads());
         std::vector<Imf::Rgba> px(size_t(out.width) * out.height);
         rgba.setFrameBuffer(px.data() - dw.min.x - size_t(dw.min.y) * out.width, 1, out.width);
         rgba.readPixels(dw.min.y, dw.max.y);

@@ -109,13 +109,20 @@ LoadedImage finish(RawPixels&& r) {
     out.source_channels = nch;
     out.format = r.format;
     out.linearised = !r.is_float && r.colorspace != "linear" && r.colorspace != "Linear";
-    out.image = Image(w, h);
     // Colour channels: RGB if there are three non-alpha channels, else grey.
     std::vector<int> colour;
     for (int c = 0; c < nch && colour.size() < 3; ++c)
         if (c != r.alpha_channel) colour.push_back(c);
     if (colour.empty()) colour.push_back(0);
     if (colour.size() < 3) colour.assign(3, colour[0]);
+    if (nch == 3 && colour == std::vector<int>{0, 1, 2} && !out.linearised) {
+        // Linear RGB already in Image's layout (an EXR's R, G, B): kept, not copied.
+        out.image.width = w;
+        out.image.height = h;
+        out.image.pixels = std::move(raw);
+        return out;
+    }
+    out.image = Image(w, h);
     for (size_t p = 0; p < size_t(w) * h; ++p)
         for (int k = 0; k < 3; ++k) {
             float v = raw[p * nch + colour[k]];
