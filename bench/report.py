@@ -201,7 +201,8 @@ def generate(results, doc_path, meta):
     w("## Pareto plots\n")
     w("Each panel: one source; x wall time, y error, both log; every point one setting of a sweep; "
       "the black star marks the default (open star: the seed as written). The sweeps: LUT Gauss-Legendre orders "
-      "(phi points, u points) against the seed's sample count; irradiance lat-long bins (8 .. 512) and SH9 alone "
+      "(phi points, u points), every texel integrated or k nodes per row with a cubic spline between, against the "
+      "seed's sample count; irradiance lat-long bins (8 .. 512) and SH9 alone "
       "(evaluated per SPEC section 5) against the seed's step; specular `eps` of the hierarchical sum and "
       "`rings` / `lod_bias` of filtered importance sampling (`--specular-method fis`) against the seed's sample count.\n")
     for kind in ("lut", "irradiance", "specular"):
@@ -269,10 +270,30 @@ def generate(results, doc_path, meta):
     if (results / "scaling.csv").exists():
         w("Scaling (sunset.exr resized; default options except the face size; median of "
           f"{meta['timing_reps']} runs, 1 for 8192 x 4096):\n")
-        w("| source | specular face | wall time | peak RSS |")
-        w("|---|---|---|---|")
+        w("The memory budget is the issue's: 3x the source's RGB float size plus the outputs held in memory "
+          "(irradiance, the specular chain, the LUT). The last column compares each row with the one before: the "
+          "time ratio over the source pixel ratio (same face), or over the output texel ratio (same source); under "
+          "1 means the cost grew slower than the count it should follow.\n")
+        w("| source | specular face | wall time | peak RSS | budget | within | time ratio / pixel ratio |")
+        w("|---|---|---|---|---|---|---|")
+        prev = None
         for r in num(read_csv(results / "scaling.csv")):
-            w(f"| {r['source']} | {r['face_size']:.0f} | {r['seconds']:.2f} s | {r['peak_rss_mb']:.0f} MB |")
+            sw, sh = (int(v) for v in r["source"].split("x"))
+            face = int(r["face_size"])
+            chain, n = 0, face
+            while n >= 1:
+                chain += 6 * n * n * 3 * 4
+                n //= 2
+            budget = (3 * sw * sh * 3 * 4 + chain + 6 * 32 * 32 * 3 * 4 + 512 * 512 * 3 * 4) / 2**20
+            ratio = "-"
+            if prev and prev[1] == face and prev[0] != sw * sh:
+                ratio = f"{(r['seconds'] / prev[2]) / (sw * sh / prev[0]):.2f} (pixels)"
+            elif prev and prev[0] == sw * sh and prev[1] != face:
+                ratio = f"{(r['seconds'] / prev[2]) / (face / prev[1]) ** 2:.2f} (texels)"
+            prev = (sw * sh, face, r["seconds"])
+            within = "yes" if r["peak_rss_mb"] <= budget else "no"
+            w(f"| {r['source']} | {face} | {r['seconds']:.2f} s | {r['peak_rss_mb']:.0f} MB | {budget:.0f} MB | "
+              f"{within} | {ratio} |")
         w("")
 
     # ------------------------------------------------- hand-written history

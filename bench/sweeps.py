@@ -169,7 +169,7 @@ def specular_sweep(name, path, img, ref, seed_times, quick):
         levels.extend(lv)
         log(f"specular {name} {method} {setting}: {secs:.3f} s, worst RMSE {s['worst_rmse']:.2e}")
 
-    for eps in ([0.15, 0.25, 0.5] if quick else [0.1, 0.15, 0.2, 0.25, 0.35, 0.5, 0.7, 1.0]):
+    for eps in ([0.15, 0.25, 0.5] if quick else [0.1, 0.15, 0.2, 0.25, 0.35, 0.5, 0.7, 1.0, 1.5, 2.0]):
         secs, r = median_time(lambda: iblbake_core.bake(img, irradiance=False, lut=False, face_size=face, eps=eps), 3)
         add("iblbake", f"eps {eps}", secs, r["specular"], eps == 0.25)
     fis = [(12, 1.0)] if quick else [(6, 1.0), (12, 1.0), (24, 1.0), (12, 2.0)]

@@ -136,8 +136,8 @@ void BakeOptions::validate() const {
           "specular_base_face must be 0 (automatic) or a power of two up to 4096");
     check(irradiance_bins >= 2 && irradiance_bins <= 4096 && (irradiance_bins & (irradiance_bins - 1)) == 0,
           "irradiance_bins must be a power of two in 2..4096");
-    check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.02 && hierarchical.eps <= 1.0,
-          "specular eps must be in 0.02..1 (error grows as eps^2; 0.25 gives about 0.3 %)");
+    check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.02 && hierarchical.eps <= 2.0,
+          "specular eps must be in 0.02..2 (error grows as eps^2; 0.25 gives about 0.3 %)");
     check(hierarchical.tile >= 1 && hierarchical.tile <= 256, "specular tile must be in 1..256");
     check(irradiance_exact_face >= 1 && irradiance_exact_face <= 4096, "irradiance_exact_face must be in 1..4096");
     check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
