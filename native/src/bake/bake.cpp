@@ -251,7 +251,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         // bins are the irradiance's too, which then needs no pass of its own.
         const bool fis = o.specular_method == SpecularMethod::Fis;
         const bool need_tree = o.specular && !fis && mips > 1 && o.resolved_last_level() > 0;
-        const bool irr_from_tree = o.irradiance && need_tree && o.irradiance_bins <= finest_bins / 2;
+        const bool irr_from_tree = o.irradiance && need_tree && o.irradiance_bins <= finest_bins / 4;
         BinTree tree;
         std::vector<Bin> irr_bins;
         if (need_tree) {

@@ -25,14 +25,16 @@ const char* png_encoding_name(PngEncoding e) { return e == PngEncoding::Srgb ? "
 // Writes one cube as a cross (EXR and/or PNG) and records encodings.
 void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cube, const WriteOptions& wo,
                  json& encodings) {
-    const std::vector<float> rgba = cube_to_hcross_rgba(cube);
     const int w = 4 * cube.size, h = 3 * cube.size;
     if (wo.exr) {
-        const bool full = wo.float32 || exceeds_half(rgba);
-        io::write_exr((dir / (stem + ".exr")).string(), w, h, 4, rgba, full ? io::ExrPixel::Float : io::ExrPixel::Half);
+        // Streamed in bands of the cross: no whole-cross buffer.
+        const bool full = wo.float32 || exceeds_half(cube.pixels);
+        io::write_exr_rows((dir / (stem + ".exr")).string(), w, h, 4, full ? io::ExrPixel::Float : io::ExrPixel::Half,
+                           [&](int y0, int rows, float* out) { hcross_rgba_rows(cube, y0, rows, out); });
         encodings[stem + ".exr"] = full ? "float" : "half";
     }
     if (wo.png) {
+        const std::vector<float> rgba = cube_to_hcross_rgba(cube);
         const std::vector<float> v = wo.png_encoding == PngEncoding::Srgb
                                          ? encode_srgb(rgba, wo.exposure)
                                          : encode_rgbm(rgba, wo.exposure, wo.rgbm_range);

@@ -85,31 +85,45 @@ BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
 BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, int keep_w) {
     BinTree tree;
     int w = std::max(2, finest_w);
+    int levels = 0;
+    for (int v = w; v >= 2; v /= 2) ++levels;
+    tree.levels.reserve(levels);  // the fillers below hold references into it
     std::vector<Bin> bins;
     if (w == 2) {
         bins = reduce_to_bins(latlong, 2, 1);
     } else {
-        // Level 0 straight from the reduction, two bin rows at a time: only
-        // the 2x-coarser exact bins are kept (a quarter of the memory, and no
-        // full-size array to fill and page in).
+        // The finest k levels straight from the reduction, 2^k level-0 rows
+        // per task, coarsened on the way: only level k's exact bins are kept
+        // (1/4^k of level 0's, which is never whole in memory).
+        const int k = w >= 8 ? 2 : 1, block = 1 << k;
         const BinReduction red(latlong, w, w / 2);
-        tree.levels.emplace_back();
-        const LevelFiller fill(tree.levels.back(), w, w / 2);
-        const int cw = w / 2, ch = w / 4;
-        bins.assign(size_t(cw) * ch, Bin{});
-        parallel_for(0, ch, [&](int y) {
-            thread_local std::vector<Bin> pair;
-            pair.resize(2 * size_t(w));
-            red.row(2 * y, pair.data());
-            red.row(2 * y + 1, pair.data() + w);
-            fill.row(2 * y, pair.data());
-            fill.row(2 * y + 1, pair.data() + w);
-            Bin* out = &bins[size_t(y) * cw];
-            for (int x = 0; x < cw; ++x)
-                for (int dy = 0; dy < 2; ++dy)
-                    for (int dx = 0; dx < 2; ++dx) add_bins(out[x], pair[size_t(dy) * w + 2 * x + dx]);
+        std::vector<LevelFiller> fillers;
+        for (int l = 0; l < k; ++l) {
+            tree.levels.emplace_back();
+            fillers.emplace_back(tree.levels.back(), w >> l, (w >> l) / 2);
+        }
+        const int kw = w >> k, kh = kw / 2;
+        bins.assign(size_t(kw) * kh, Bin{});
+        parallel_for(0, kh, [&](int y) {
+            thread_local std::vector<Bin> cur, next;
+            cur.resize(size_t(block) * w);
+            for (int r = 0; r < block; ++r) red.row(y * block + r, &cur[size_t(r) * w]);
+            int cw = w, rows = block;
+            for (int l = 0; l < k; ++l) {
+                for (int r = 0; r < rows; ++r) fillers[l].row((y * block >> l) + r, &cur[size_t(r) * cw]);
+                next.assign(size_t(rows / 2) * (cw / 2), Bin{});
+                for (int r = 0; r < rows / 2; ++r)
+                    for (int x = 0; x < cw / 2; ++x)
+                        for (int dy = 0; dy < 2; ++dy)
+                            for (int dx = 0; dx < 2; ++dx)
+                                add_bins(next[size_t(r) * (cw / 2) + x], cur[size_t(2 * r + dy) * cw + 2 * x + dx]);
+                std::swap(cur, next);
+                cw /= 2;
+                rows /= 2;
+            }
+            std::copy(cur.begin(), cur.begin() + kw, bins.begin() + size_t(y) * kw);
         });
-        w = cw;
+        w = kw;
     }
     while (true) {
         if (keep && w == keep_w) *keep = bins;

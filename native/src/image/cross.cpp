@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <stdexcept>
 
 #include "iblbake/image/image.h"
@@ -6,19 +7,25 @@
 namespace iblbake {
 
 std::vector<float> cube_to_hcross_rgba(const Cubemap& cube) {
+    std::vector<float> out(size_t(4) * cube.size * 3 * cube.size * 4);
+    hcross_rgba_rows(cube, 0, 3 * cube.size, out.data());
+    return out;
+}
+
+void hcross_rgba_rows(const Cubemap& cube, int y0, int rows, float* out) {
     const size_t n = size_t(cube.size), w = 4 * n;
-    std::vector<float> out(w * 3 * n * 4, 0.0f);
+    std::fill(out, out + w * size_t(rows) * 4, 0.0f);
     for (int face = 0; face < 6; ++face) {
         const CrossCell cell = kHCrossCells[face];
-        for (size_t j = 0; j < n; ++j) {
-            float* d = &out[((cell.row * n + j) * w + cell.col * n) * 4];
+        for (int y = std::max(y0, int(cell.row * n)); y < std::min(y0 + rows, int((cell.row + 1) * n)); ++y) {
+            const size_t j = y - cell.row * n;
+            float* d = &out[(size_t(y - y0) * w + cell.col * n) * 4];
             const float* s = cube.at(face, 0, int(j));
             for (size_t i = 0; i < n; ++i, d += 4, s += 3) {
                 d[0] = s[0]; d[1] = s[1]; d[2] = s[2]; d[3] = 1.0f;
             }
         }
     }
-    return out;
 }
 
 Cubemap hcross_to_cube(const Image& cross) {

@@ -32,10 +32,9 @@ std::vector<float> encode_rgbm(const std::vector<float>& rgba, float exposure, f
     return out;
 }
 
-bool exceeds_half(const std::vector<float>& rgba) {
-    for (size_t p = 0; p < rgba.size(); p += 4)
-        for (int k = 0; k < 3; ++k)
-            if (!(std::fabs(rgba[p + k]) <= 65504.0f)) return true;
+bool exceeds_half(const std::vector<float>& values) {
+    for (float v : values)
+        if (!(std::fabs(v) <= 65504.0f)) return true;
     return false;
 }
 

@@ -174,6 +174,13 @@ void write_exr(const std::string& path, int width, int height, int channels, con
     });
 }
 
+void write_exr_rows(const std::string& path, int width, int height, int channels, ExrPixel pixel,
+                    const std::function<void(int y0, int rows, float* out)>& fill) {
+    write_checked(path, width, height, channels, size_t(width) * height * channels, [&] {
+        detail::write_exr_file_rows(path, width, height, channels, pixel == ExrPixel::Half, fill);
+    });
+}
+
 void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
     write_checked(path, width, height, channels, values.size(),
                   [&] { detail::write_png_file(path, width, height, channels, values.data(), 8); });

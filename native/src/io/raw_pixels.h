@@ -1,6 +1,7 @@
 // What a file reader hands to read_image() before the shared finishing
 // (display window, channel choice, sRGB decode). Private to io/.
 #pragma once
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,8 @@ struct RawPixels {
 bool is_exr(const std::string& path);
 RawPixels read_exr(const std::string& path);
 void write_exr_file(const std::string& path, int width, int height, int channels, const float* values, bool half);
+void write_exr_file_rows(const std::string& path, int width, int height, int channels, bool half,
+                         const std::function<void(int y0, int rows, float* out)>& fill);
 void write_png_file(const std::string& path, int width, int height, int channels, const float* values, int bits);
 
 // The plugin's C interface (oiio_plugin.cpp, built as libiblbake_oiio.so and

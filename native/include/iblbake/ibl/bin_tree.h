@@ -30,7 +30,7 @@ struct BinTree {
 };
 
 // finest_w: bins across at level 0 (a power of two >= 2). With `keep`, the
-// exact bins (ibl/source.h) at keep_w across (a power of two in 2..finest_w/2)
+// exact bins (ibl/source.h) at keep_w across (a power of two in 2..finest_w/4)
 // are copied there on the way: another reduction of the same image for free.
 BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep = nullptr, int keep_w = 0);
 

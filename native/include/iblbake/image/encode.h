@@ -15,7 +15,8 @@ std::vector<float> encode_srgb(const std::vector<float>& rgba, float exposure);
 // rgb <= 1. Unused cross cells (alpha 0) stay 0.
 std::vector<float> encode_rgbm(const std::vector<float>& rgba, float exposure, float range);
 
-// Whether any colour value is beyond half float's range (65504) or not finite.
-bool exceeds_half(const std::vector<float>& rgba);
+// Whether any value is beyond half float's range (65504) or not finite: for
+// RGB or RGBA buffers alike (alpha is 0 or 1).
+bool exceeds_half(const std::vector<float>& values);
 
 }  // namespace iblbake

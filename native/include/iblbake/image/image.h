@@ -55,6 +55,9 @@ struct Cubemap {
 // as one interleaved RGBA buffer (alpha 1 on faces, 0 on unused cells): what
 // the writers take, built without intermediate copies.
 std::vector<float> cube_to_hcross_rgba(const Cubemap& cube);
+// Rows y0 .. y0 + rows - 1 of that cross into `out` (rows * 4N * 4 floats),
+// for writers that stream a file in bands instead of holding the whole cross.
+void hcross_rgba_rows(const Cubemap& cube, int y0, int rows, float* out);
 // The inverse, for readers and tests.
 Cubemap hcross_to_cube(const Image& cross);
 

@@ -3,6 +3,7 @@
 // is read (src/io/oiio_plugin.cpp), so baking EXR starts in milliseconds.
 // Nothing else in the library reads or writes image files.
 #pragma once
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,10 @@ void write_exr(const std::string& path, int width, int height, int channels, con
 inline void write_exr(const std::string& path, const Image& img, ExrPixel pixel) {
     write_exr(path, img.width, img.height, 3, img.pixels, pixel);
 }
+// The same, written in bands of rows that fill(y0, rows, out) supplies
+// (rows * width * channels values), so no whole-image buffer is needed.
+void write_exr_rows(const std::string& path, int width, int height, int channels, ExrPixel pixel,
+                    const std::function<void(int y0, int rows, float* out)>& fill);
 // 8-bit RGBA PNG from already-encoded values in [0, 1].
 void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
 // 16-bit PNG from values in [0, 1].
