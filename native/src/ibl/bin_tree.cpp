@@ -15,7 +15,12 @@ namespace {
 // Fills a BinLevel row by row from exact bins: centroids, weights, radii.
 class LevelFiller {
 public:
-    LevelFiller(BinLevel& level, int w, int h) : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1) {
+    LevelFiller(BinLevel& level, int w, int h)
+        : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1), lon_(w) {
+        // Each bin's geometry straight from its rectangle's exact integrals
+        // (not summed from source texel pieces): the same for every source, so
+        // anything computed from geometry alone can be reused across bakes.
+        for (int x = 0; x < w; ++x) lon_[x] = lon_integrals(double(x) / w, double(x + 1) / w);
         L_.w = w;
         L_.h = h;
         const size_t n = size_t(w) * h;
@@ -32,6 +37,7 @@ public:
 
     void row(int y, const Bin* bins) const {
         const double v0 = 1.0 - double(y + 1) / h_, v1 = 1.0 - double(y) / h_;
+        const LatIntegrals lat = lat_integrals(v0, v1);
         double clat[3], slat[3];
         for (int r = 0; r < 3; ++r) {
             const double lat = (v0 + (v1 - v0) * 0.5 * r - 0.5) * kPi;
@@ -41,7 +47,7 @@ public:
         for (int x = 0; x < w_; ++x) {
             const size_t i = L_.index(x, y);
             const Bin& b = bins[x];
-            Vec3d c{b.moment[0], b.moment[1], b.moment[2]};
+            Vec3d c = rect_moment(lon_[x], lat);
             const double cl = length(c);
             c = cl > 0.0 ? c / cl : blender_to_engine(latlong_to_direction((x + 0.5) / w_, 0.5 * (v0 + v1)));
             Vec3d p{0, 0, 0};
@@ -71,6 +77,7 @@ private:
     BinLevel& L_;
     int w_, h_;
     std::vector<double> cphi_, sphi_;
+    std::vector<LonIntegrals> lon_;
 };
 
 BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {

@@ -303,13 +303,6 @@ BinReduction::BinReduction(ImageView img, int bw, int bh)
     // Row pieces of each bin row are contiguous: bin rows are independent work.
     first_.assign(bh_ + 1, rows_.size());
     for (size_t k = rows_.size(); k-- > 0;) first_[rows_[k].b] = k;
-    bin_lon_.assign(bw_, LonIntegrals{});  // geometry only: the same for every row
-    for (size_t q = 0; q < cols_.size(); ++q) {
-        LonIntegrals& a = bin_lon_[cols_[q].b];
-        a.p0 += lon_[q].p0;
-        a.pc += lon_[q].pc;
-        a.ps += lon_[q].ps;
-    }
 }
 
 // A bin's integrals are sums of v(x, y) lon(x) lat(y) over its pieces
@@ -324,13 +317,9 @@ void BinReduction::row(int br, Bin* out) const {
     double* col_s0 = col.data();
     double* col_s1 = col_s0 + n;
     double* col_c0 = col_s1 + n;
-    LatIntegrals lat_sum{};
     for (size_t k = first_[br]; k < rows_.size() && rows_[k].b == br; ++k) {
         const OverlayPiece& rp = rows_[k];
         const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
-        lat_sum.s0 += lat.s0;
-        lat_sum.s1 += lat.s1;
-        lat_sum.c0 += lat.c0;
         const float* src = img_.at(0, rp.a);
         for (size_t i = 0; i < n; ++i) {
             const double v = src[i];
@@ -352,14 +341,6 @@ void BinReduction::row(int br, Bin* out) const {
             b.vector[c][2] -= col_c0[i + c] * l.ps;
         }
     }
-    for (int bx = 0; bx < bw_; ++bx) {
-        Bin& b = out[bx];
-        const Vec3d m = rect_moment(bin_lon_[bx], lat_sum);
-        b.moment[0] = m.x;
-        b.moment[1] = m.y;
-        b.moment[2] = m.z;
-        b.omega = rect_solid_angle(bin_lon_[bx], lat_sum);
-    }
 }
 
 std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh) {
@@ -373,9 +354,7 @@ void add_bins(Bin& o, const Bin& b) {
     for (int c = 0; c < 3; ++c) {
         for (int k = 0; k < 3; ++k) o.vector[c][k] += b.vector[c][k];
         o.power[c] += b.power[c];
-        o.moment[c] += b.moment[c];
     }
-    o.omega += b.omega;
 }
 
 std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int bw, int bh) {

@@ -91,8 +91,8 @@ Image rest_image(ImageView img, const HotSplit& split);
 struct Bin {
     double vector[3][3];  // per channel: integral of L_c w dOmega (engine space)
     double power[3];      // per channel: integral of L_c dOmega
-    double moment[3];     // integral of w dOmega
-    double omega;         // solid angle
+    // (A bin's geometry, its solid angle and first moment, is that of its
+    // rectangle alone: rect_solid_angle and rect_moment, math/latlong.h.)
 };
 std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh);
 // The same reduction one bin row at a time: rows are independent, so a caller
@@ -108,7 +108,7 @@ private:
     ImageView img_;
     int bw_, bh_;
     std::vector<OverlayPiece> cols_, rows_;
-    std::vector<LonIntegrals> lon_, bin_lon_;
+    std::vector<LonIntegrals> lon_;
     std::vector<size_t> first_;
 };
 // o += b, every integral.
