@@ -299,12 +299,23 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 const int n = std::max(1, o.face_size >> m);
                 const double rough = o.mip_roughness(m);
                 Cubemap level(n);
+                bool norm_cached = false;
                 if (rough == 0.0) {
                     specular_mirror(level, source);
                     r.samples_per_texel.push_back(1);
                     r.specular_methods.push_back("bilinear source lookup");
                 } else if (!fis) {
-                    const double bins = specular_hierarchical(level, tree, rough, o.hierarchical);
+                    // The level's normaliser from the cache when there, else made and kept.
+                    std::vector<float> norm;
+                    const size_t texels = size_t(6) * n * n;
+                    const std::string key = specular_normaliser_key(n, rough, o.hierarchical.eps,
+                                                                    o.hierarchical.tile, finest_bins);
+                    if (lut_cache) {
+                        if (auto cached = lut_cache->load_floats(key, texels)) norm = std::move(*cached);
+                    }
+                    norm_cached = norm.size() == texels;
+                    const double bins = specular_hierarchical(level, tree, rough, o.hierarchical, &norm);
+                    if (lut_cache && !norm_cached) lut_cache->store_floats(key, norm);
                     r.samples_per_texel.push_back(size_t(std::lround(bins)));
                     r.specular_methods.push_back("hierarchical kernel sum over exact bins (eps " +
                                                  std::to_string(o.hierarchical.eps).substr(0, 4) + ")");
@@ -314,6 +325,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     r.specular_methods.push_back("filtered importance sampling + hot texels");
                 }
                 r.specular.push_back(std::move(level));
+                r.specular_normaliser_from_cache.push_back(norm_cached);
                 r.specular_levels.push_back(m);
                 r.roughness.push_back(rough);
                 advance(w_spec / (last - first + 1));

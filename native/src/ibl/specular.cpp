@@ -114,9 +114,11 @@ struct BinSoA {
 
 constexpr size_t kLanes = 16;  // independent partial sums: the loop vectorises, the order stays fixed
 
-// sum_b K(n.p_b) power_b and sum_b K(n.c_b) omega_b over `count` bins (a
-// multiple of kLanes), K the GGX prefilter kernel up to its constant factor
-// (4 a^2 / pi cancels in the ratio). Float lanes within blocks, double across.
+// sum_b K(n.p_b) power_b and (kWithDen) sum_b K(n.c_b) omega_b over `count`
+// bins (a multiple of kLanes), K the GGX prefilter kernel up to its constant
+// factor (4 a^2 / pi cancels in the ratio). Float lanes within blocks, double
+// across.
+template <bool kWithDen>
 void kernel_sums(const BinSoA& b, size_t count, float a2, const Vec3& n, double num[3], double& den) {
     num[0] = num[1] = num[2] = den = 0.0;
     constexpr size_t kBlock = 512;
@@ -127,14 +129,16 @@ void kernel_sums(const BinSoA& b, size_t count, float a2, const Vec3& n, double 
             for (size_t l = 0; l < kLanes; ++l) {
                 const size_t q = p + l;
                 const float dx = n.x - b.px[q], dy = n.y - b.py[q], dz = n.z - b.pz[q];
-                const float ex = n.x - b.cx[q], ey = n.y - b.cy[q], ez = n.z - b.cz[q];
-                float kp, kc;
-                ggx::prefilter_kernel_shape2(a2, 0.5f * (dx * dx + dy * dy + dz * dz),
-                                             0.5f * (ex * ex + ey * ey + ez * ez), kp, kc);
+                // The numerator's kernel is computed alike in both variants, so
+                // a bake with a cached normaliser gives the same bits.
+                const float kp = ggx::prefilter_kernel_shape(a2, 0.5f * (dx * dx + dy * dy + dz * dz));
+                if constexpr (kWithDen) {
+                    const float ex = n.x - b.cx[q], ey = n.y - b.cy[q], ez = n.z - b.cz[q];
+                    sw[l] += ggx::prefilter_kernel_shape(a2, 0.5f * (ex * ex + ey * ey + ez * ez)) * b.om[q];
+                }
                 s0[l] += kp * b.p0[q];
                 s1[l] += kp * b.p1[q];
                 s2[l] += kp * b.p2[q];
-                sw[l] += kc * b.om[q];
             }
         float t0 = 0, t1 = 0, t2 = 0, tw = 0;
         for (size_t l = 0; l < kLanes; ++l) {
@@ -152,7 +156,11 @@ void kernel_sums(const BinSoA& b, size_t count, float a2, const Vec3& n, double 
 
 }  // namespace
 
-double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q) {
+double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q,
+                             std::vector<float>* normaliser) {
+    const size_t texels = size_t(6) * dst.size * dst.size;
+    const bool given = normaliser && normaliser->size() == texels;
+    if (normaliser && !given) normaliser->assign(texels, 0.0f);
     const float alpha = float(roughness * roughness), a2 = alpha * alpha;
     // The lobe's angular length scale in w: 2 alpha for narrow lobes, about
     // one radian (the cosine's) as alpha -> 1.
@@ -232,7 +240,19 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
         for (int j = j0; j < j1; ++j)
             for (int i = i0; i < i1; ++i, ++k) {
                 double num[3], den;
-                kernel_sums(bins, padded, a2, dirs[k], num, den);
+                const size_t t = (size_t(face) * n + j) * n + i;
+                // The denominator is geometry alone (bin centroids and solid
+                // angles, the same bins for any source): a cached one is used
+                // as is, a computed one is rounded to float as the cache keeps
+                // it, so warm and cold bakes give the same bits.
+                if (given) {
+                    kernel_sums<false>(bins, padded, a2, dirs[k], num, den);
+                    den = (*normaliser)[t];
+                } else {
+                    kernel_sums<true>(bins, padded, a2, dirs[k], num, den);
+                    den = double(float(den));
+                    if (normaliser) (*normaliser)[t] = float(den);
+                }
                 float* o = dst.at(face, i, j);
                 for (int ch = 0; ch < 3; ++ch) o[ch] = den > 0.0 ? float(num[ch] / den) : 0.0f;
             }

@@ -59,18 +59,6 @@ inline float prefilter_kernel_shape(float a2, float one_minus_c) {
     return c > 0.0f ? c / (t * t) : 0.0f;
 }
 
-// Two of them with one division (the hot loop's limit): c / t^2 for both
-// from 1 / (t_p^2 t_c^2). t >= 2 a^2 c > 0 where c > 0, so the product stays
-// a normal float for every chain (first roughness >= 1/19: a^2 >= 7.7e-6).
-inline void prefilter_kernel_shape2(float a2, float omc_p, float omc_c, float& kp, float& kc) {
-    const float cp = 1.0f - omc_p, cc = 1.0f - omc_c;
-    const float tp = omc_p + a2 * (1.0f + cp), tc = omc_c + a2 * (1.0f + cc);
-    const float tp2 = tp * tp, tc2 = tc * tc;
-    const float inv = 1.0f / (tp2 * tc2);
-    kp = cp > 0.0f ? cp * tc2 * inv : 0.0f;
-    kc = cc > 0.0f ? cc * tp2 * inv : 0.0f;
-}
-
 // Z(alpha) = integral over the sphere of the prefilter kernel,
 // = 4 * integral_0^{1/(1+a^2)} (1 - (a^2+1) u) / (1 + (a^2-1) u) du.
 // Closed form 4 [ -1/c + 2a^2/c^2 ln(2a^2/(1+a^2)) ], c = a^2 - 1; near
