@@ -24,7 +24,10 @@ def machine():
 
 
 def timing_only(reps):
+    cal = timing.calibration()
     rows, rss = timing.default_bake(reps)
+    print(f"calibration workload {cal:.3f} s (quiet: {timing.CALIBRATION_QUIET_SECONDS} s): the host ran at "
+          f"{timing.CALIBRATION_QUIET_SECONDS / cal:.2f} of its quiet speed")
     for r in rows:
         print(f"{r['stage']:45s} {r['seconds']:8.3f} s")
     print(f"peak RSS {rss:.0f} MB")
@@ -32,11 +35,13 @@ def timing_only(reps):
 
 def bake_timing(results, args):
     """The default bake's per-stage timing and the scaling table, into CSVs; returns their metadata."""
+    cal = timing.calibration()
     stage_rows, rss = timing.default_bake(args.reps)
     write_csv(results / "default_bake.csv", stage_rows)
     if not args.no_scaling:
         write_csv(results / "scaling.csv", timing.scaling(3, args.quick))
     return {"timing_reps": args.reps, "default_rss_mb": rss, "timing_date": datetime.date.today().isoformat(),
+            "calibration_seconds": cal, "calibration_quiet_seconds": timing.CALIBRATION_QUIET_SECONDS,
             "timing_commit": subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                                             capture_output=True, text=True).stdout.strip()}
 

@@ -8,7 +8,7 @@ import subprocess
 import time
 
 import sources
-from common import CACHE, CLI, log
+from common import CACHE, CLI, log, run_tool
 
 
 def bake_once(src, out, *extra):
@@ -36,6 +36,22 @@ def timed_bake(src, reps, *extra):
     shutil.rmtree(out)
     stages = {k: statistics.median(r[2][k] for r in runs) for k in runs[0][2]}
     return statistics.median(r[0] for r in runs), max(r[1] for r in runs), stages
+
+
+# The calibration workload: the irradiance seed at step 0.05 on forest.exr
+# (a fixed amount of arithmetic, independent of iblbake's code), and its
+# median in the quiet run at commit 7597f61. The host is shared: its speed
+# drifts by up to 1.7x within a day, so the doc reports how fast it ran.
+CALIBRATION_QUIET_SECONDS = 1.374
+
+
+def calibration(reps=3):
+    """Median seconds of the calibration workload now, and the host's speed against the quiet run."""
+    out = CACHE / "calibration.f32"
+    secs = run_tool("seed-irradiance", sources.STUDIOLIGHTS / "forest.exr", 32, 0.05, reps, out)
+    out.unlink(missing_ok=True)
+    log(f"calibration workload: {secs:.3f} s (quiet run {CALIBRATION_QUIET_SECONDS} s)")
+    return secs
 
 
 def default_bake(reps):

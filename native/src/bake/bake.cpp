@@ -298,6 +298,13 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             for (int m = first; m <= last; ++m) {
                 const int n = std::max(1, o.face_size >> m);
                 const double rough = o.mip_roughness(m);
+                if (rough > 0.0 && !fis && owned) {
+                    // Past mip 0 only the tree is read: a source this bake owns
+                    // (the CLI's, or a cleaned copy) is freed before the rest
+                    // of the chain is made and written.
+                    std::vector<float>().swap(owned->pixels);
+                    owned = nullptr;
+                }
                 Cubemap level(n);
                 bool norm_cached = false;
                 if (rough == 0.0) {
