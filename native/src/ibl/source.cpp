@@ -45,34 +45,19 @@ inline float max3(const float* p) { return std::max(p[0], std::max(p[1], p[2]));
 
 }  // namespace
 
+namespace {
+
+// Every value not finite and >= 0 becomes 0 (SPEC.md section 1); src may be dst.
+void clean_values(const float* src, float* dst, size_t n) {
+    for (size_t i = 0; i < n; ++i) dst[i] = src[i] >= 0.0f && src[i] <= FLT_MAX ? src[i] : 0.0f;
+}
+
+}  // namespace
+
 BadInputCounts sanitize(Image& img) {
-    const int h = img.height;
-    std::vector<BadInputCounts> rows(h);
-    parallel_for(0, h, [&](int y) {
-        // Fast path: a vectorised test of the whole row (NaN fails both comparisons).
-        const float* row = img.at(0, y);
-        int any_bad = 0;
-        for (int k = 0; k < 3 * img.width; ++k) any_bad |= !(row[k] >= 0.0f && row[k] <= FLT_MAX);
-        if (!any_bad) return;
-        BadInputCounts c;
-        for (int x = 0; x < img.width; ++x) {
-            float* p = img.at(x, y);
-            bool bad = false;
-            for (int k = 0; k < 3; ++k) {
-                const float v = p[k];
-                if (std::isnan(v)) { ++c.nan; bad = true; p[k] = 0.0f; }
-                else if (std::isinf(v)) { ++c.inf; bad = true; p[k] = 0.0f; }
-                else if (v < 0.0f) { ++c.negative; bad = true; p[k] = 0.0f; }
-            }
-            c.pixels += bad;
-        }
-        rows[y] = c;
-    });
-    BadInputCounts total;
-    for (const auto& c : rows) {
-        total.nan += c.nan; total.inf += c.inf; total.negative += c.negative; total.pixels += c.pixels;
-    }
-    return total;
+    const SourceScan scan = scan_source(img);
+    for (int y : scan.bad_rows) clean_values(img.at(0, y), img.at(0, y), size_t(img.width) * 3);
+    return scan.bad;
 }
 
 SourceScan scan_source(ImageView img) {
@@ -130,8 +115,7 @@ ImageView sanitized_view(ImageView img, const SourceScan& scan, std::vector<floa
     for (size_t k = 0; k < scan.bad_rows.size(); ++k) {
         const int y = scan.bad_rows[k];
         float* dst = store.data() + k * n;
-        const float* src = img.at(0, y);
-        for (size_t i = 0; i < n; ++i) dst[i] = src[i] >= 0.0f && src[i] <= FLT_MAX ? src[i] : 0.0f;
+        clean_values(img.at(0, y), dst, n);
         row_table[y] = dst;
     }
     ImageView v = img;

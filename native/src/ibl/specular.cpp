@@ -219,9 +219,11 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
                                                     : std::max(scale, dmin);
             if (lvl == 0 || beta <= eps * length_scale) {
                 acc[0].push_back(L.px[b]); acc[1].push_back(L.py[b]); acc[2].push_back(L.pz[b]);
-                acc[3].push_back(L.cx[b]); acc[4].push_back(L.cy[b]); acc[5].push_back(L.cz[b]);
+                if (!given) {  // the solid-angle centroids serve the denominator alone
+                    acc[3].push_back(L.cx[b]); acc[4].push_back(L.cy[b]); acc[5].push_back(L.cz[b]);
+                    acc[9].push_back(L.omega[b]);
+                }
                 acc[6].push_back(L.power[0][b]); acc[7].push_back(L.power[1][b]); acc[8].push_back(L.power[2][b]);
-                acc[9].push_back(L.omega[b]);
             } else {
                 const int cl = lvl - 1;
                 for (int dy = 0; dy < 2; ++dy)
@@ -233,7 +235,8 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
         used[tile] = double(count);
         // Pad to whole lanes with bins of no power and no solid angle.
         const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
-        for (auto& a : acc) a.resize(padded, 0.0f);
+        for (auto& a : acc)
+            if (!a.empty() || !given) a.resize(padded, 0.0f);
         const BinSoA bins{acc[0].data(), acc[1].data(), acc[2].data(), acc[3].data(), acc[4].data(),
                           acc[5].data(), acc[6].data(), acc[7].data(), acc[8].data(), acc[9].data()};
         size_t k = 0;
