@@ -206,7 +206,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 std::copy(view.data, view.data + view.value_count(), copy.pixels.begin());
                 owned = &copy;
             }
-            sanitize(*owned);
+            clean_bad_rows(*owned, scan);
             if (scale_exp != 0)
                 for (float& v : owned->pixels) v = std::ldexp(v, -scale_exp);
             view = *owned;

@@ -54,9 +54,13 @@ void clean_values(const float* src, float* dst, size_t n) {
 
 }  // namespace
 
+void clean_bad_rows(Image& img, const SourceScan& scan) {
+    for (int y : scan.bad_rows) clean_values(img.at(0, y), img.at(0, y), size_t(img.width) * 3);
+}
+
 BadInputCounts sanitize(Image& img) {
     const SourceScan scan = scan_source(img);
-    for (int y : scan.bad_rows) clean_values(img.at(0, y), img.at(0, y), size_t(img.width) * 3);
+    clean_bad_rows(img, scan);
     return scan.bad;
 }
 

@@ -32,6 +32,9 @@ struct SourceScan {
 };
 SourceScan scan_source(ImageView img);
 
+// sanitize() with the scan done: cleans the scan's bad rows in place.
+void clean_bad_rows(Image& img, const SourceScan& scan);
+
 // A view of `img` as sanitize() would leave it, without copying the image:
 // the scan's bad rows are copied into `store` and cleaned there, and the
 // view's row table (`row_table`) points every other row at `img`.
