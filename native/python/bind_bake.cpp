@@ -212,9 +212,11 @@ void bind_bake(pybind11::module_& m) {
             src.width = pixels.width();
             src.height = pixels.height();
             return run_bake(p, out, src, [&](SourceInfo& s) {
-                // An RGB array is integrated where it lies; RGBA is copied to RGB.
+                // An RGB array is integrated where it lies; RGBA is copied to
+                // RGB, and that copy is the bake's own (cleaned in place, freed early).
                 Image rgb;
-                const ImageView view = pixels.is_rgb() ? pixels.view() : ImageView(rgb = pixels.to_image());
+                if (!pixels.is_rgb()) rgb = pixels.to_image();
+                const ImageView view = pixels.is_rgb() ? pixels.view() : ImageView(rgb);
                 // The manifest's hash: the caller's, else the file's when the
                 // pixels came from one (as the CLI), else the pixels'. Only a
                 // written bake pays for it (100 MB of pixels take 80 ms).
@@ -224,7 +226,8 @@ void bind_bake(pybind11::module_& m) {
                                    ? io::sha256_file(s.path)
                                    : io::sha256_bytes(view.data, view.value_count() * sizeof(float));
                 }
-                return compute_bake_view(view, p.bo, p.progress, p.lut_cache());
+                return pixels.is_rgb() ? compute_bake_view(view, p.bo, p.progress, p.lut_cache())
+                                       : compute_bake(std::move(rgb), p.bo, p.progress, p.lut_cache());
             });
         },
         pybind11::arg("image"), pybind11::arg("out_dir") = pybind11::none(),
