@@ -9,6 +9,7 @@
 
 #include "iblbake/bake/bake_file.h"
 #include "iblbake/bake/lut_cache.h"
+#include "iblbake/image/encode.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/color.h"
 #include "reference.h"
@@ -258,6 +259,19 @@ TEST(Io, CrossStreamedInBandsReadsBackExactly) {
                            [&](int y0, int rows, float* out) { hcross_rgba_rows(cube, y0, rows, out); });
         const io::LoadedImage li = io::read_image(path);
         EXPECT_EQ(hcross_to_cube(li.image).pixels, cube.pixels);
+    }
+    // PNG in bands, encoded band by band: the same bytes as from the whole cross.
+    auto bytes = [](const fs::path& p) {
+        std::ifstream f(p, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(f), {});
+    };
+    for (float exposure : {-8.0f, 0.0f}) {
+        io::write_png8((dir / "whole.png").string(), 4 * n, 3 * n, 4, encode_rgbm(whole, exposure, 8.0f));
+        io::write_png8_rows((dir / "bands.png").string(), 4 * n, 3 * n, 4, [&](int y0, int rows, float* out) {
+            hcross_rgba_rows(cube, y0, rows, out);
+            encode_rgbm_in_place(out, size_t(rows) * 4 * n * 4, exposure, 8.0f);
+        });
+        EXPECT_EQ(bytes(dir / "whole.png"), bytes(dir / "bands.png")) << exposure;
     }
 }
 

@@ -33,12 +33,13 @@ void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cu
                            [&](int y0, int rows, float* out) { hcross_rgba_rows(cube, y0, rows, out); });
         encodings[stem + ".exr"] = full ? "float" : "half";
     }
-    if (wo.png) {
-        const std::vector<float> rgba = cube_to_hcross_rgba(cube);
-        const std::vector<float> v = wo.png_encoding == PngEncoding::Srgb
-                                         ? encode_srgb(rgba, wo.exposure)
-                                         : encode_rgbm(rgba, wo.exposure, wo.rgbm_range);
-        io::write_png8((dir / (stem + ".png")).string(), w, h, 4, v);
+    if (wo.png) {  // streamed in bands too, each encoded as it goes
+        io::write_png8_rows((dir / (stem + ".png")).string(), w, h, 4, [&](int y0, int rows, float* out) {
+            hcross_rgba_rows(cube, y0, rows, out);
+            const size_t n = size_t(rows) * w * 4;
+            if (wo.png_encoding == PngEncoding::Srgb) encode_srgb_in_place(out, n, wo.exposure);
+            else encode_rgbm_in_place(out, n, wo.exposure, wo.rgbm_range);
+        });
         encodings[stem + ".png"] = png_encoding_name(wo.png_encoding);
     }
 }

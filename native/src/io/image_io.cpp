@@ -186,6 +186,12 @@ void write_png8(const std::string& path, int width, int height, int channels, co
                   [&] { detail::write_png_file(path, width, height, channels, values.data(), 8); });
 }
 
+void write_png8_rows(const std::string& path, int width, int height, int channels,
+                     const std::function<void(int y0, int rows, float* out)>& fill) {
+    write_checked(path, width, height, channels, size_t(width) * height * channels,
+                  [&] { detail::write_png_file_rows(path, width, height, channels, 8, fill); });
+}
+
 void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
     write_checked(path, width, height, channels, values.size(),
                   [&] { detail::write_png_file(path, width, height, channels, values.data(), 16); });

@@ -2,6 +2,7 @@
 // already encoded (8-bit: sRGB or RGBM; 16-bit: linear, marked gAMA 1).
 #include <png.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -13,6 +14,14 @@
 namespace iblbake::io::detail {
 
 void write_png_file(const std::string& path, int width, int height, int channels, const float* values, int bits) {
+    const size_t row = size_t(width) * channels;
+    write_png_file_rows(path, width, height, channels, bits, [&](int y0, int rows, float* out) {
+        std::copy(values + size_t(y0) * row, values + size_t(y0 + rows) * row, out);
+    });
+}
+
+void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,
+                         const std::function<void(int y0, int rows, float* out)>& fill) {
     std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
     if (!f) throw std::runtime_error("cannot open for writing");
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
@@ -23,6 +32,9 @@ void write_png_file(const std::string& path, int width, int height, int channels
     }
     const int stride = width * channels * (bits / 8);
     std::vector<unsigned char> row(stride);
+    // Bands of 64 rows from `fill`: no whole-image buffer.
+    const int band = std::min(64, height);
+    std::vector<float> values(size_t(width) * channels * band);
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         throw std::runtime_error("libpng failed");
@@ -37,7 +49,8 @@ void write_png_file(const std::string& path, int width, int height, int channels
     png_write_info(png, info);
     const float scale = bits == 8 ? 255.0f : 65535.0f;
     for (int y = 0; y < height; ++y) {
-        const float* src = values + size_t(y) * width * channels;
+        if (y % band == 0) fill(y, std::min(band, height - y), values.data());
+        const float* src = values.data() + size_t(y % band) * width * channels;
         for (int k = 0; k < width * channels; ++k) {
             const float v = std::fmin(std::fmax(src[k], 0.0f), 1.0f);
             const unsigned q = unsigned(std::lround(v * scale));

@@ -25,6 +25,8 @@ void write_exr_file(const std::string& path, int width, int height, int channels
 void write_exr_file_rows(const std::string& path, int width, int height, int channels, bool half,
                          const std::function<void(int y0, int rows, float* out)>& fill);
 void write_png_file(const std::string& path, int width, int height, int channels, const float* values, int bits);
+void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,
+                         const std::function<void(int y0, int rows, float* out)>& fill);
 
 // The plugin's C interface (oiio_plugin.cpp, built as libiblbake_oiio.so and
 // loaded only for files that are not EXR, so that baking EXR never loads

@@ -15,6 +15,10 @@ std::vector<float> encode_srgb(const std::vector<float>& rgba, float exposure);
 // rgb <= 1. Unused cross cells (alpha 0) stay 0.
 std::vector<float> encode_rgbm(const std::vector<float>& rgba, float exposure, float range);
 
+// The same two, in place on `values` RGBA values (a band of a cross).
+void encode_srgb_in_place(float* rgba, size_t values, float exposure);
+void encode_rgbm_in_place(float* rgba, size_t values, float exposure, float range);
+
 // Whether any value is beyond half float's range (65504) or not finite: for
 // RGB or RGBA buffers alike (alpha is 0 or 1).
 bool exceeds_half(const std::vector<float>& values);

@@ -38,6 +38,9 @@ void write_exr_rows(const std::string& path, int width, int height, int channels
                     const std::function<void(int y0, int rows, float* out)>& fill);
 // 8-bit RGBA PNG from already-encoded values in [0, 1].
 void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
+// The same, written in bands of rows that fill(y0, rows, out) supplies.
+void write_png8_rows(const std::string& path, int width, int height, int channels,
+                     const std::function<void(int y0, int rows, float* out)>& fill);
 // 16-bit PNG from values in [0, 1].
 void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
 
