@@ -163,4 +163,15 @@ Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, floa
     return img;
 }
 
+std::array<double, 3> mean_radiance(const Image& img) {
+    std::array<double, 3> total{};
+    for (int y = 0; y < img.height; ++y) {
+        const double om = latlong_row_solid_angle(y, img.width, img.height);
+        for (int x = 0; x < img.width; ++x)
+            for (int c = 0; c < 3; ++c) total[c] += img.at(x, y)[c] * om;
+    }
+    for (double& v : total) v /= 4.0 * kPi;
+    return total;
+}
+
 }  // namespace iblbake::ref

@@ -44,5 +44,7 @@ Image constant_source(int w, int h, float value);
 Image random_smooth_source(int w, int h, unsigned seed);  // positive, a few octaves
 // A disc of `radius_deg` and radiance `sun` around the Blender direction `dir`, on a `sky` background.
 Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky);
+// Solid-angle-weighted mean radiance per channel (texel-constant radiance).
+std::array<double, 3> mean_radiance(const Image& img);
 
 }  // namespace iblbake::ref

@@ -449,21 +449,4 @@ std::array<Sh9, 3> project_sh9(ImageView img) {
     return total;
 }
 
-std::array<double, 3> mean_radiance(ImageView img) {
-    const int w = img.width, h = img.height;
-    std::vector<std::array<double, 3>> rows(h);
-    parallel_for(0, h, [&](int y) {
-        std::array<double, 3> row{};
-        for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 3; ++c) row[c] += img.at(x, y)[c];
-        const double om = latlong_row_solid_angle(y, w, h);
-        for (int c = 0; c < 3; ++c) rows[y][c] = row[c] * om;
-    });
-    std::array<double, 3> total{};
-    for (const auto& r : rows)  // fixed order
-        for (int c = 0; c < 3; ++c) total[c] += r[c];
-    for (double& v : total) v /= 4.0 * kPi;
-    return total;
-}
-
 }  // namespace iblbake

@@ -140,7 +140,5 @@ VectorCloud vector_cloud(const std::vector<Bin>& bins);
 // every texel's exact basis integral (texel-constant radiance), in double.
 std::array<Sh9, 3> project_sh9(ImageView img);
 
-// Solid-angle-weighted mean radiance per channel.
-std::array<double, 3> mean_radiance(ImageView img);
 
 }  // namespace iblbake
