@@ -9,6 +9,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 import sources  # noqa: E402
 from common import read_csv  # noqa: E402
+from timing import SCALING_REPS  # noqa: E402
 
 BOUNDS = {"lut": ("max_abs_err", 1e-4), "irradiance": ("max_rel", 5e-3), "specular": ("worst_rmse", 1e-2)}
 STYLE = {"iblbake": ("tab:blue", "o"), "fis": ("tab:orange", "s"), "sh9": ("tab:green", "D"), "seed": ("tab:red", "^")}
@@ -275,8 +276,8 @@ def generate(results, doc_path, meta):
         w(f"| {r['stage']} | {r['seconds']:.3f} |")
     w("")
     if (results / "scaling.csv").exists():
-        w("Scaling (sunset.exr resized; default options except the face size; median of "
-          f"{meta['timing_reps']} runs, 1 for 8192 x 4096):\n")
+        w(f"Scaling (sunset.exr resized; default options except the face size; median of {SCALING_REPS} runs, "
+          "1 for 8192 x 4096):\n")
         w("The memory budget is the issue's: 3x the source's RGB float size plus the outputs held in memory "
           "(irradiance, the specular chain, the LUT). The last column compares each row with the one before: the "
           "time ratio over the source pixel ratio (same face), or over the output texel ratio (same source); under "

@@ -39,7 +39,7 @@ def bake_timing(results, args):
     stage_rows, rss = timing.default_bake(args.reps)
     write_csv(results / "default_bake.csv", stage_rows)
     if not args.no_scaling:
-        write_csv(results / "scaling.csv", timing.scaling(3, args.quick))
+        write_csv(results / "scaling.csv", timing.scaling(timing.SCALING_REPS, args.quick))
     return {"timing_reps": args.reps, "default_rss_mb": rss, "timing_date": datetime.date.today().isoformat(),
             "calibration_seconds": cal, "calibration_quiet_seconds": timing.CALIBRATION_QUIET_SECONDS,
             "timing_commit": subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],

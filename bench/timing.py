@@ -65,6 +65,9 @@ def default_bake(reps):
     return rows, rss
 
 
+SCALING_REPS = 3  # runs per scaling row (median); the 8K row runs once
+
+
 def scaling(reps, quick):
     """Wall time and peak RSS against source size (face 256) and face size (2048 x 1024 source)."""
     rows = []
