@@ -86,13 +86,6 @@ RawPixels read_exr(const std::string& path) {
     return out;
 }
 
-void write_exr_file(const std::string& path, int width, int height, int channels, const float* values, bool half) {
-    const size_t row = size_t(width) * channels;
-    write_exr_file_rows(path, width, height, channels, half, [&](int y0, int rows, float* out) {
-        std::copy(values + size_t(y0) * row, values + size_t(y0 + rows) * row, out);
-    });
-}
-
 void write_exr_file_rows(const std::string& path, int width, int height, int channels, bool half,
                          const std::function<void(int y0, int rows, float* out)>& fill) {
     Imf::Header header(width, height);

@@ -155,6 +155,14 @@ LoadedImage read_image(const std::string& path) {
 }
 
 namespace {
+// A whole interleaved buffer handed to a banded writer, rows y0 .. y0 + rows - 1 at a time.
+std::function<void(int, int, float*)> rows_of(const std::vector<float>& values, int width, int channels) {
+    const size_t row = size_t(width) * channels;
+    return [&values, row](int y0, int rows, float* out) {
+        std::copy(values.begin() + size_t(y0) * row, values.begin() + size_t(y0 + rows) * row, out);
+    };
+}
+
 // Checks the buffer, runs `write`, and names the file in any error.
 template <typename Fn>
 void write_checked(const std::string& path, int width, int height, int channels, size_t values, Fn&& write) {
@@ -170,7 +178,8 @@ void write_checked(const std::string& path, int width, int height, int channels,
 void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
                ExrPixel pixel) {
     write_checked(path, width, height, channels, values.size(), [&] {
-        detail::write_exr_file(path, width, height, channels, values.data(), pixel == ExrPixel::Half);
+        detail::write_exr_file_rows(path, width, height, channels, pixel == ExrPixel::Half,
+                                    rows_of(values, width, channels));
     });
 }
 
@@ -183,7 +192,7 @@ void write_exr_rows(const std::string& path, int width, int height, int channels
 
 void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
     write_checked(path, width, height, channels, values.size(),
-                  [&] { detail::write_png_file(path, width, height, channels, values.data(), 8); });
+                  [&] { detail::write_png_file_rows(path, width, height, channels, 8, rows_of(values, width, channels)); });
 }
 
 void write_png8_rows(const std::string& path, int width, int height, int channels,
@@ -194,7 +203,7 @@ void write_png8_rows(const std::string& path, int width, int height, int channel
 
 void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
     write_checked(path, width, height, channels, values.size(),
-                  [&] { detail::write_png_file(path, width, height, channels, values.data(), 16); });
+                  [&] { detail::write_png_file_rows(path, width, height, channels, 16, rows_of(values, width, channels)); });
 }
 
 }  // namespace iblbake::io

@@ -13,13 +13,6 @@
 
 namespace iblbake::io::detail {
 
-void write_png_file(const std::string& path, int width, int height, int channels, const float* values, int bits) {
-    const size_t row = size_t(width) * channels;
-    write_png_file_rows(path, width, height, channels, bits, [&](int y0, int rows, float* out) {
-        std::copy(values + size_t(y0) * row, values + size_t(y0 + rows) * row, out);
-    });
-}
-
 void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,
                          const std::function<void(int y0, int rows, float* out)>& fill) {
     std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);

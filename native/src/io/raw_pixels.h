@@ -18,13 +18,12 @@ struct RawPixels {
     std::vector<float> data;                // width * height * channels
 };
 
-// The OpenEXR reader and writers (exr_file.cpp) and the PNG writer (png_file.cpp).
+// The OpenEXR reader and writer (exr_file.cpp) and the PNG writer (png_file.cpp); the writers take
+// their pixels in bands of rows from `fill` (io::write_exr and friends hand them a whole buffer so).
 bool is_exr(const std::string& path);
 RawPixels read_exr(const std::string& path);
-void write_exr_file(const std::string& path, int width, int height, int channels, const float* values, bool half);
 void write_exr_file_rows(const std::string& path, int width, int height, int channels, bool half,
                          const std::function<void(int y0, int rows, float* out)>& fill);
-void write_png_file(const std::string& path, int width, int height, int channels, const float* values, int bits);
 void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,
                          const std::function<void(int y0, int rows, float* out)>& fill);
 
