@@ -1,28 +1,48 @@
 #!/usr/bin/env bash
 # Installs iblbake's build and test dependencies from Debian's archive
-# (Debian 12). Does nothing when everything is already installed.
+# (Debian 12 bookworm, Debian 13 trixie; Debian unstable works too).
+# Does nothing when everything is already installed. Every package the build
+# and the tests use is named here: installs use --no-install-recommends, which
+# drops packages that CMake config files rely on silently.
 set -euo pipefail
 
-PACKAGES=(
-  build-essential cmake pkg-config
-  libopenimageio-dev libopenexr-dev libpng-dev
-  pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib time
-  nlohmann-json3-dev libtbb-dev libssl-dev libcli11-dev
-  libgtest-dev libbenchmark-dev
-  blender blender-data
-)
+# --- which Debian ------------------------------------------------------------
+. /etc/os-release 2>/dev/null || true
+RELEASE=""
+if [ "${ID:-}" = debian ]; then
+  case "${VERSION_ID:-}" in
+    12) RELEASE=bookworm ;;
+    13) RELEASE=trixie ;;
+    "") RELEASE=sid ;;  # unstable/testing has no VERSION_ID
+  esac
+fi
+if [ -z "$RELEASE" ]; then
+  echo "install_deps: unsupported system '${PRETTY_NAME:-unknown}': iblbake installs its dependencies on Debian 12 (bookworm) and Debian 13 (trixie) only" >&2
+  exit 1
+fi
+
+# --- what each part needs (one group a line; release differences here) -------
+BUILD=(build-essential cmake pkg-config ca-certificates git)
+LIBS=(libopenimageio-dev openimageio-tools libopenexr-dev libpng-dev libtbb-dev
+      nlohmann-json3-dev libssl-dev libcli11-dev)
+PYTHON=(python3-dev python3-numpy pybind11-dev)
+TESTS=(libgtest-dev libgmock-dev libbenchmark-dev python3-pytest python3-matplotlib time)
+BLENDER=(blender blender-data)
+
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -eq 0 ]; then
-  echo "install_deps: all ${#PACKAGES[@]} packages present"
+  echo "install_deps: all ${#PACKAGES[@]} packages present ($RELEASE)"
   exit 0
 fi
-echo "install_deps: installing ${missing[*]}"
+echo "install_deps ($RELEASE): installing ${missing[*]}"
 SUDO=""
 [ "$(id -u)" -eq 0 ] || SUDO="sudo"
 export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+APT=($SUDO apt-get -o DPkg::Lock::Timeout=900)
+"${APT[@]}" update -qq
+"${APT[@]}" install -y -qq --no-install-recommends "${missing[@]}"
