@@ -51,8 +51,13 @@ def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
                 exposure=float(settings.exposure), float32=settings.float32, eps=float(settings.eps),
                 threads=settings.threads, irradiance=settings.irradiance, specular=settings.specular,
                 lut=settings.lut)
+    if settings.presets:  # engine-ready exports beside the crosses (iblbake_core.presets())
+        opts["presets"] = list(settings.presets)
+    if settings.preview:
+        opts["preview"] = True
     reasons = {}
-    if settings.auto_skip and needs is not None and needs.analysed:
+    # Engine presets need every level of their own chain: nothing is skipped for them.
+    if settings.auto_skip and needs is not None and needs.analysed and not settings.presets:
         for key, out in (("irradiance", "irradiance"), ("specular", "specular"), ("lut", "brdf_lut")):
             if opts[key] and not getattr(needs, key):
                 opts[key] = False
@@ -139,6 +144,8 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         os.rmdir(tempfile.mkdtemp(prefix=".iblbake-probe-", dir=parent or "."))
     except OSError as e:
         raise BakeError("cannot write into %s: %s" % (parent or ".", e.strerror or e)) from e
+    if progress is not None and progress("hashing", 0.0) is False:
+        raise core.Cancelled()
     pixel_digest = pixels_sha256(pixels) if pixels is not None else None
     digest = content_hash(source, pixel_digest, opts, settings, core.__version__)
     if not settings.force and existing_hash(out_dir) == digest:

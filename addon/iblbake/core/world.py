@@ -125,6 +125,12 @@ def prepare_pixels(src: WorldSource, rgba_bottom_up: np.ndarray, width: int, hei
     img = np.ascontiguousarray(px)
     if src.needs_srgb_decode():
         img = srgb_to_linear(img)
+    return apply_nodes(src, img, remap)
+
+
+def apply_nodes(src: WorldSource, img: np.ndarray, remap=None) -> np.ndarray:
+    """Linear (H, W, 3) float32 radiance, rows top-down, seen through the
+    Mapping node and times Strength (in place where it can)."""
     if src.mapping is not None and not src.mapping.is_identity():
         if remap is None:
             raise ValueError("a Mapping node needs the native remap")
@@ -133,3 +139,26 @@ def prepare_pixels(src: WorldSource, rgba_bottom_up: np.ndarray, width: int, hei
     if src.strength != 1.0:
         img *= np.float32(src.strength)
     return img
+
+
+class FileNotAsBlenderShowsIt(Exception):
+    """The file's pixels, read by iblbake itself, may differ from what Blender
+    shows for the image (alpha, colour space): read Blender's buffer instead."""
+
+
+def read_file_pixels(src: WorldSource, read_image, remap=None, alpha_matters: bool = True) -> np.ndarray:
+    """The Environment Texture's radiance read straight from its file by the
+    native reader (off Blender's main thread: it releases the GIL), as
+    Blender would show it: (H, W, 3) float32, rows top-down. `read_image(path,
+    info=True)` is iblbake_core.read_image. Raises FileNotAsBlenderShowsIt when
+    the file's pixels are not what Blender shows (then Blender's own buffer
+    is read instead)."""
+    img, info = read_image(src.image_path, info=True)
+    if info["channels"] >= 4 and alpha_matters:
+        raise FileNotAsBlenderShowsIt("the file has an alpha channel")
+    if src.is_float:
+        if src.colorspace not in LINEAR_COLORSPACES:
+            raise FileNotAsBlenderShowsIt("a float image in colour space %r" % src.colorspace)
+    elif not (src.colorspace == "sRGB" and info["linearised"]):
+        raise FileNotAsBlenderShowsIt("an 8-bit image in colour space %r" % src.colorspace)
+    return apply_nodes(src, np.asarray(img, dtype=np.float32), remap)
