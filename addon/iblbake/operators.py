@@ -207,11 +207,18 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def _status(self, context, stage, fraction):
+        """The stage and the whole bake's fraction, for the panel and the status
+        bar; redrawn only when what they show changes (each redraw costs)."""
         run = state.RUN
         if run is not None:
             run.stage, run.fraction = stage, max(run.fraction, min(1.0, fraction))
+            fraction = run.fraction
+        text = "iblbake: %s %d%% (Esc to cancel)" % (stage, int(100 * fraction))
+        if text == getattr(self, "_shown", None):
+            return
+        self._shown = text
         try:
-            context.workspace.status_text_set("iblbake: %s %d%% (Esc to cancel)" % (stage, int(100 * fraction)))
+            context.workspace.status_text_set(text)
         except (AttributeError, ReferenceError):
             pass
         _redraw(context)
@@ -245,6 +252,8 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
             if IBLBAKE_OT_bake._running is not self:  # released by a file load (see _release_on_load)
                 return self._finish(context, cancelled=True)
             run = state.RUN
+            if self._step == "cancelling":
+                return self._poll_cancel(context) if event.type == "TIMER" else {"PASS_THROUGH"}
             if (event.type == "ESC" and event.value == "PRESS") or (run is not None and run.cancel_requested):
                 return self._cancel(context)
             if event.type != "TIMER":
@@ -322,18 +331,32 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         self._status(context, "Rendering the world with Cycles", 0.02)
 
     def _abort(self):
+        """Asks the child render and the worker to stop; returns at once."""
         if self._child is not None:
-            self._child.cleanup()
+            self._child.cancel()
         job = getattr(self, "_job", None)
         if isinstance(job, BakeJob):
             job.cancel()
 
     def _cancel(self, context):
-        self._status(context, "Cancelling", state.RUN.fraction if state.RUN else 0.0)
+        """Stops the child render or the worker; the worker is then waited for
+        on the timer (a file read in progress ends on its own, the native
+        bake at its next progress report), never on the main thread."""
         self._abort()
+        self._step = "cancelling"
+        self._status(context, "Cancelling", state.RUN.fraction if state.RUN else 0.0)
+        return self._poll_cancel(context)
+
+    def _poll_cancel(self, context):
+        if self._child is not None and not self._child.done():
+            return {"RUNNING_MODAL"}
         job = getattr(self, "_job", None)
-        if isinstance(job, BakeJob):
-            job.wait(30)  # the native bake stops at its next progress report (milliseconds)
+        if not isinstance(job, BakeJob):
+            return self._finish(context, cancelled=True)
+        if not job.done():
+            return {"RUNNING_MODAL"}
+        if job.result is not None:  # it had finished (and written) before the key press: say so
+            return self._finish(context)
         return self._finish(context, cancelled=True)
 
     def _cleanup(self, context):
@@ -385,6 +408,9 @@ class IBLBAKE_OT_cancel(bpy.types.Operator):
 
     def execute(self, context):
         state.RUN.cancel_requested = True
+        op = IBLBAKE_OT_bake._running
+        if op is not None:  # stop the work now; the modal operator reports at its next event
+            op._abort()
         return {"FINISHED"}
 
 

@@ -82,14 +82,13 @@ def _max_chars(context):
 
 def _draw_progress(layout, context):
     run = state.RUN
-    row = layout.row(align=True)
-    row.scale_y = 1.4
-    text = "%s  %d%%" % (run.stage, int(100 * run.fraction))
-    if hasattr(row, "progress"):  # Blender 4.0+
-        row.progress(factor=run.fraction, type="BAR", text=text)
-    else:  # 3.x: a read-only factor property drawn as a slider
-        row.prop(context.window_manager, "iblbake_progress", text=text, slider=True)
-    row.operator(operators.IBLBAKE_OT_cancel.bl_idname, text="Cancel", icon="CANCEL")
+    split = layout.split(factor=0.75, align=True)
+    split.scale_y = 1.4
+    if hasattr(split, "progress"):  # Blender 4.0+
+        split.progress(factor=run.fraction, type="BAR", text="%s  %d%%" % (run.stage, int(100 * run.fraction)))
+    else:  # 3.x: a read-only percentage property drawn as a slider
+        split.prop(context.window_manager, "iblbake_progress", text=run.stage, slider=True)
+    split.operator(operators.IBLBAKE_OT_cancel.bl_idname, text="Cancel", icon="CANCEL")
 
 
 STATUS_ICONS = {"INFO": "CHECKMARK", "CANCEL": "CANCEL", "ERROR": "ERROR"}
@@ -105,13 +104,10 @@ def _draw_last(layout, context, last):
         box = layout.box()
         col = box.column(align=True)
         col.label(text="%d files, %s" % (len(last.files), describe.human_size(last.total_bytes)), icon="FILE")
-        shown = last.files[:10]
-        for name, size in shown:
+        for name, size in describe.grouped_files(last.files):
             row = col.row()
             row.label(text=name, icon="BLANK1")
             row.label(text=describe.human_size(size))
-        if len(last.files) > len(shown):
-            col.label(text="and %d more" % (len(last.files) - len(shown)), icon="BLANK1")
     if last.preview:
         img = bpy.data.images.get(operators.PREVIEW_IMAGE)
         box = layout.box()
@@ -156,6 +152,7 @@ class IBLBAKE_PT_world(bpy.types.Panel):
 
         lines, folder, folder_error = _plan_lines(context, scene)
         col = layout.column(align=True)
+        col.label(text="Output Folder")
         col.prop(props, "output_dir", text="")
         if folder:
             col.label(text=describe.shorten_middle(folder, width), icon="FILE_FOLDER")
@@ -165,7 +162,7 @@ class IBLBAKE_PT_world(bpy.types.Panel):
 
         box = layout.box()
         box.label(text="Bake For")
-        box.row().prop(props, "bake_for", expand=True)
+        box.column(align=True).prop(props, "bake_for", expand=True)
         col = box.column(align=True)
         for line in lines:
             for i, part in enumerate(_wrap(line, width - 2)):

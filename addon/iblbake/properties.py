@@ -110,7 +110,7 @@ def _engines_changed(props, context):
 
 def _progress(_wm):
     run = state.RUN
-    return run.fraction if run is not None else 0.0
+    return 100.0 * run.fraction if run is not None else 0.0
 
 
 classes = (IBLBAKE_SceneSettings,)
@@ -120,7 +120,7 @@ def register_props():
     bpy.types.Scene.iblbake = PointerProperty(type=IBLBAKE_SceneSettings)
     # The running bake's progress for the panel's bar (read-only, not saved: a window manager property).
     bpy.types.WindowManager.iblbake_progress = FloatProperty(
-        name="Progress", subtype="FACTOR", min=0.0, max=1.0, get=_progress,
+        name="Progress", subtype="PERCENTAGE", min=0.0, max=100.0, precision=0, get=_progress,
         description="How far the running bake is (Esc or Cancel stops it)")
 
 

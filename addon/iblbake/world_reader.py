@@ -337,6 +337,8 @@ class ChildRender:
         cmd = [bpy.app.binary_path, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1",
                "--python", script, "--", self.blend if self.world is not None else "", name, str(width),
                str(samples), str(frame), self.exr, self.notes_path]
+        if shutil.which("nice"):  # the open Blender's UI comes first
+            cmd = ["nice", "-n", "10"] + cmd
         env = dict(os.environ)
         env.pop("PYTHONPATH", None)
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
@@ -375,15 +377,19 @@ class ChildRender:
         return self.exr, notes
 
     def cancel(self):
+        """Asks the child to stop (SIGTERM); returns at once (done() says when it has)."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+
+    def cleanup(self):
+        """Ends the child (killed if SIGTERM did not end it within a second) and removes its files."""
         if self.proc is not None and self.proc.poll() is None:
             self.proc.terminate()
             try:
-                self.proc.wait(2)
+                self.proc.wait(1)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
-
-    def cleanup(self):
-        self.cancel()
+                self.proc.wait()
         shutil.rmtree(self.tmp, ignore_errors=True)
 
 

@@ -88,3 +88,23 @@ def manifest_of(out_dir: str) -> Optional[dict]:
             return json.load(f)
     except (OSError, ValueError):
         return None
+
+
+def grouped_files(files: List[Tuple[str, int]]) -> List[Tuple[str, int]]:
+    """A bake's files for a short list: the specular levels of one extension
+    as one line ("specular_0-8.exr (9 files)"), the others one by one."""
+    out, levels = [], {}
+    for name, size in files:
+        stem, ext = os.path.splitext(name)
+        if stem.startswith("specular_") and stem[9:].isdigit():
+            levels.setdefault(ext, []).append((int(stem[9:]), size))
+            continue
+        out.append((name, size))
+    for ext, items in sorted(levels.items()):
+        items.sort()
+        first, last = items[0][0], items[-1][0]
+        if len(items) == 1:
+            out.append(("specular_%d%s" % (first, ext), items[0][1]))
+        else:
+            out.append(("specular_%d-%d%s (%d files)" % (first, last, ext, len(items)), sum(s for _, s in items)))
+    return out
