@@ -24,8 +24,7 @@ def _world_line(scene):
         return "IMAGE_DATA", "Image %s%s" % (src.image_name, (" (" + ", ".join(extra) + ")") if extra else "")
     if src.path == COLOR:
         return "COLOR", "Plain color (%.3g, %.3g, %.3g): baked exactly" % tuple(src.color)
-    why = src.why[0].upper() + src.why[1:] if src.why else ""
-    return "RENDER_STILL", "Rendered by Cycles: %s" % why
+    return "RENDER_STILL", "Rendered by Cycles: %s" % src.why
 
 
 # The scene analysis, kept between redraws until the scene changes (a redraw
@@ -97,9 +96,10 @@ STATUS_ICONS = {"INFO": "CHECKMARK", "CANCEL": "CANCEL", "ERROR": "ERROR"}
 def _draw_last(layout, context, last):
     if not last.status:
         return
-    col = layout.column(align=True)
-    for i, line in enumerate(_wrap(last.status, _max_chars(context))):
-        col.label(text=line, icon=STATUS_ICONS.get(last.kind, "INFO") if i == 0 else "BLANK1")
+    if state.RUN is None:  # while a bake runs, its bar says what is going on
+        col = layout.column(align=True)
+        for i, line in enumerate(_wrap(last.status, _max_chars(context))):
+            col.label(text=line, icon=STATUS_ICONS.get(last.kind, "INFO") if i == 0 else "BLANK1")
     if last.files:
         box = layout.box()
         col = box.column(align=True)
@@ -112,7 +112,11 @@ def _draw_last(layout, context, last):
         img = bpy.data.images.get(operators.PREVIEW_IMAGE)
         box = layout.box()
         if img is not None and getattr(img, "preview", None) is not None:
-            box.template_icon(icon_value=img.preview.icon_id, scale=8.0)
+            # As wide as the panel allows, up to 400 pixels (Blender's preview icon has 256).
+            scale = context.preferences.view.ui_scale
+            width = context.region.width if context.region else 300
+            box.template_icon(icon_value=img.preview.icon_id, scale=max(4.0, min(width - 40 * scale, 400 * scale)
+                                                                        / (20.0 * scale)))
         box.operator(operators.IBLBAKE_OT_open_preview.bl_idname, icon="IMAGE_DATA")
 
 
