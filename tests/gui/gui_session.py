@@ -55,8 +55,7 @@ class Pulse:
         now = time.perf_counter()
         cpu, wait = schedstat()
         cpu = time.thread_time()
-        from iblbake import state
-        run = state.RUN
+        run = addon("state").RUN
         label = run.stage if run is not None else self.label
         if self.last is not None:
             gap = now - self.last
@@ -110,6 +109,26 @@ def timed(cls, name):
             finally:
                 note(t)
     setattr(cls, name, wrapper)
+
+
+ADDON = [None]  # the add-on's module name: "iblbake", or "bl_ext.user_default.iblbake" as an extension
+
+
+def install():
+    """The zip as a user installs it: an extension on Blender 4.2+, else Preferences > Add-ons > Install."""
+    if "extension" in os.path.basename(ZIP):
+        bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
+        ADDON[0] = "bl_ext.user_default.iblbake"
+    else:
+        bpy.ops.preferences.addon_install(filepath=ZIP)
+        addon_utils.enable("iblbake", default_set=True)
+        ADDON[0] = "iblbake"
+    if ADDON[0] not in bpy.context.preferences.addons:
+        raise RuntimeError("the add-on %s did not install from %s" % (ADDON[0], ZIP))
+
+
+def addon(submodule):
+    return sys.modules[ADDON[0] + "." + submodule]
 
 
 def screenshot(name):
@@ -174,14 +193,14 @@ def sky_world():
 
 
 def wait_idle():
-    from iblbake import state
+    state = addon("state")
     while state.RUN is not None:
         yield 0.05
 
 
 def bake_and_watch(key):
     """Clicks Bake and follows it to the end (the generator's caller waits)."""
-    from iblbake import state
+    state = addon("state")
     PULSE.reset(key)
     start = time.perf_counter()
     result = click_bake()
@@ -218,10 +237,10 @@ def cancel_at(key, stage_prefix, how, folder, face_size=None):
     """Bakes again (forced; with face_size, a slower bake whose specular stage
     outlasts a key press's way through the X server) and stops it with Esc
     or Cancel once the stage starts; the folder must be as it was."""
-    from iblbake import state
+    state = addon("state")
     before = snapshot(folder)
     props = bpy.context.scene.iblbake
-    opts = props if props.use_scene_options else bpy.context.preferences.addons["iblbake"].preferences
+    opts = props if props.use_scene_options else bpy.context.preferences.addons[ADDON[0]].preferences
     old_face = opts.face_size
     if face_size:
         opts.face_size = face_size
@@ -250,11 +269,10 @@ def cancel_at(key, stage_prefix, how, folder, face_size=None):
 
 
 def scenario():
-    bpy.ops.preferences.addon_install(filepath=ZIP)
-    addon_utils.enable("iblbake", default_set=True)
-    prefs = bpy.context.preferences.addons["iblbake"].preferences
+    install()
+    prefs = bpy.context.preferences.addons[ADDON[0]].preferences
     prefs.default_output_dir = os.path.join(WORK, "out", "{world}")
-    from iblbake import operators, panel
+    operators, panel = addon("operators"), addon("panel")
     for cls, names in ((operators.IBLBAKE_OT_bake, ("invoke", "modal")), (panel.IBLBAKE_PT_world, ("draw",))):
         for name in names:
             timed(cls, name)

@@ -10,6 +10,7 @@ Prints the longest stalls it measured (wall clock is never asserted: this
 machine is shared) and keeps the screenshots in build/tests/gui/."""
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -53,8 +54,18 @@ def xvfb():
         proc.wait(10)
 
 
+def blender_version():
+    out = subprocess.run([BLENDER, "--version"], capture_output=True, text=True, timeout=120).stdout
+    m = re.search(r"Blender (\d+)\.(\d+)", out)
+    assert m, out[:300]
+    return int(m.group(1)), int(m.group(2))
+
+
 def addon_zip():
-    zips = sorted(p for p in os.listdir(BUILD) if p.startswith("iblbake-addon-") and p.endswith(".zip"))
+    """The zip a user of this Blender installs: the extension on 4.2+, else the add-on."""
+    zips = sorted(p for p in os.listdir(BUILD) if p.startswith("iblbake-") and p.endswith(".zip"))
+    want_extension = blender_version() >= (4, 2)
+    zips = [p for p in zips if ("extension" in p) == want_extension]
     assert zips, "build the addon_zip target first"
     return os.path.join(BUILD, zips[-1])
 
@@ -81,6 +92,7 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("IBLBAKE_CORE_DIR", "PYTHONPATH")}
     env.update(DISPLAY=xvfb, BLENDER_USER_SCRIPTS=str(tmp_path / "scripts"),
+               BLENDER_USER_EXTENSIONS=str(tmp_path / "extensions"), BLENDER_USER_CONFIG=str(tmp_path / "config"),
                IBLBAKE_CACHE_DIR=str(tmp_path / "cache"))
     cmd = [BLENDER, "--factory-startup", "-p", "0", "0", str(SIZE[0]), str(SIZE[1]), "--python",
            os.path.join(HERE, "gui_session.py"), "--", addon_zip(), str(work), big_exr()]

@@ -136,7 +136,7 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
     opts = native_options(settings, needs)
     if not (opts["irradiance"] or opts["specular"] or opts["lut"]):
         why = "; ".join(sorted(set((opts.get("skip_reasons") or {}).values()))) or "every output is switched off"
-        raise BakeError("nothing to bake (%s): switch Skip Unused off to bake anyway" % why)
+        raise BakeError("nothing to bake (%s): choose Bake For: Every Roughness to bake anyway" % why)
     parent = os.path.dirname(out_dir)
     while parent and not os.path.isdir(parent):
         parent = os.path.dirname(parent)
