@@ -116,7 +116,7 @@ def test_materials_decide_what_is_baked(case):
     m = manifest(work / "principled")  # roughness 0.3 of r_m = m / 5: levels 1 and 2
     assert [e["level"] for e in m["specular"]] == [1, 2]
     assert sorted(os.listdir(work / "principled")) == [
-        "brdf_lut.exr", "irradiance.exr", "manifest.json", "specular_1.exr", "specular_2.exr"]
+        "brdf_lut.exr", "irradiance.exr", "manifest.json", "preview.png", "specular_1.exr", "specular_2.exr"]
     assert any(s["what"] == "specular levels 0-0, 3-5" for s in m["skipped"])
 
     m = manifest(work / "metal")  # fully metallic, textured roughness: no diffuse, every level
