@@ -56,7 +56,7 @@ class BakeOptionProps:
     png_encoding: EnumProperty(name="PNG Encoding", items=PNG_ITEMS, default="srgb")
     exposure: FloatProperty(name="PNG Exposure", default=0.0, min=-64, max=64, description="Stops, PNG only")
     render_width: IntProperty(name="Render Width", default=S.RENDER_WIDTH, min=16, max=16384,
-                              description="Worlds that are not an image or a colour are rendered by Cycles "
+                              description="Worlds that are not an image or a plain color are rendered by Cycles "
                                           "to a lat-long of this width (height is half)")
     render_samples: IntProperty(name="Render Samples", default=S.RENDER_SAMPLES, min=1, max=4096,
                                 description="Cycles samples per pixel for that render (denoising is off)")

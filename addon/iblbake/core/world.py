@@ -113,7 +113,7 @@ class WorldSource:
 
     def check_colorspace(self):
         if not self.is_float and self.colorspace != "sRGB" and self.colorspace not in LINEAR_COLORSPACES:
-            raise ValueError("colour space %r of an 8-bit image is not read directly" % self.colorspace)
+            raise ValueError("the Color Space %r of an 8-bit image is not read directly" % self.colorspace)
 
 
 def prepare_pixels(src: WorldSource, rgba_bottom_up: np.ndarray, width: int, height: int, remap=None) -> np.ndarray:
@@ -158,7 +158,7 @@ def read_file_pixels(src: WorldSource, read_image, remap=None, alpha_matters: bo
         raise FileNotAsBlenderShowsIt("the file has an alpha channel")
     if src.is_float:
         if src.colorspace not in LINEAR_COLORSPACES:
-            raise FileNotAsBlenderShowsIt("a float image in colour space %r" % src.colorspace)
+            raise FileNotAsBlenderShowsIt("a float image in Color Space %r" % src.colorspace)
     elif not (src.colorspace == "sRGB" and info["linearised"]):
-        raise FileNotAsBlenderShowsIt("an 8-bit image in colour space %r" % src.colorspace)
+        raise FileNotAsBlenderShowsIt("an 8-bit image in Color Space %r" % src.colorspace)
     return apply_nodes(src, np.asarray(img, dtype=np.float32), remap)
