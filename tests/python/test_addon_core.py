@@ -248,6 +248,9 @@ def test_file_read_off_the_main_thread_matches_blenders_pixels(tmp_path):
     import subprocess
     alpha = str(tmp_path / "alpha.exr")
     subprocess.run(["oiiotool", "--pattern", "constant:color=1,1,1,0.5", "32x16", "4", "-o", alpha], check=True)
+    from iblbake.core.world import exr_channels
+    assert exr_channels(alpha) == ["A", "B", "G", "R"] and exr_channels(path) == ["B", "G", "R"]
+    assert exr_channels(__file__) == []
     with pytest.raises(FileNotAsBlenderShowsIt):
         read_file_pixels(WorldSource(IMAGE, image_path=alpha, colorspace="Linear", is_float=True), ib.read_image)
     img = read_file_pixels(WorldSource(IMAGE, image_path=alpha, colorspace="Linear", is_float=True), ib.read_image,

@@ -153,6 +153,8 @@ def read_file_pixels(src: WorldSource, read_image, remap=None, alpha_matters: bo
     info=True)` is iblbake_core.read_image. Raises FileNotAsBlenderShowsIt when
     the file's pixels are not what Blender shows (then Blender's own buffer
     is read instead)."""
+    if alpha_matters and "A" in exr_channels(src.image_path):  # the native reader reads R, G, B only
+        raise FileNotAsBlenderShowsIt("the file has an alpha channel")
     img, info = read_image(src.image_path, info=True)
     if info["channels"] >= 4 and alpha_matters:
         raise FileNotAsBlenderShowsIt("the file has an alpha channel")
@@ -162,3 +164,31 @@ def read_file_pixels(src: WorldSource, read_image, remap=None, alpha_matters: bo
     elif not (src.colorspace == "sRGB" and info["linearised"]):
         raise FileNotAsBlenderShowsIt("an 8-bit image in Color Space %r" % src.colorspace)
     return apply_nodes(src, np.asarray(img, dtype=np.float32), remap)
+
+
+def exr_channels(path: str) -> list:
+    """The channel names an OpenEXR file's header lists ([] for other files
+    or an unreadable header): its attributes are name, type, size, value;
+    "channels" (chlist) holds name, 16 bytes, ..., an empty name."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(65536)
+    except OSError:
+        return []
+    if head[:4] != b"\x76\x2f\x31\x01":
+        return []
+    pos = 8
+    while pos < len(head) and head[pos] != 0:
+        name_end = head.index(b"\0", pos)
+        type_end = head.index(b"\0", name_end + 1)
+        size = int.from_bytes(head[type_end + 1:type_end + 5], "little")
+        value = head[type_end + 5:type_end + 5 + size]
+        if head[pos:name_end] == b"channels" and head[name_end + 1:type_end] == b"chlist":
+            names, i = [], 0
+            while i < len(value) and value[i] != 0:
+                end = value.index(b"\0", i)
+                names.append(value[i:end].decode("latin-1"))
+                i = end + 1 + 16
+            return names
+        pos = type_end + 5 + size
+    return []
