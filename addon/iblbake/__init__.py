@@ -45,6 +45,7 @@ def unregister():
     for handlers, fn in reversed(_HANDLERS):
         if fn in handlers:
             handlers.remove(fn)
+    panel.free_previews()
     properties.unregister_props()
     for cls in reversed(_CLASSES):
         bpy.utils.unregister_class(cls)

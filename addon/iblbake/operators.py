@@ -392,7 +392,6 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         self._end_stage("bake")
         report.seconds = time.perf_counter() - self._clicked  # what the user waited, from the click
         record(name, report, stages=self._stages)
-        load_preview(state.last(name).preview)
         self.report({"INFO"}, report.summary())
         return {"FINISHED"}
 
@@ -431,8 +430,6 @@ def load_preview(path):
     else:
         img.reload()
     img.use_fake_user = False
-    if hasattr(img, "preview_ensure"):
-        img.preview_ensure()
     return img
 
 

@@ -109,15 +109,43 @@ def _draw_last(layout, context, last):
             row.label(text=name, icon="BLANK1")
             row.label(text=describe.human_size(size))
     if last.preview:
-        img = bpy.data.images.get(operators.PREVIEW_IMAGE)
         box = layout.box()
-        if img is not None and getattr(img, "preview", None) is not None:
+        icon = _preview_icon(last.preview)
+        if icon:
             # As wide as the panel allows, up to 400 pixels (Blender's preview icon has 256).
             scale = context.preferences.view.ui_scale
             width = context.region.width if context.region else 300
-            box.template_icon(icon_value=img.preview.icon_id, scale=max(4.0, min(width - 40 * scale, 400 * scale)
-                                                                        / (20.0 * scale)))
+            box.template_icon(icon_value=icon, scale=max(4.0, min(width - 40 * scale, 400 * scale) / (20.0 * scale)))
         box.operator(operators.IBLBAKE_OT_open_preview.bl_idname, icon="IMAGE_DATA")
+
+
+# preview.png as a custom preview: Blender reads the file for the icon in a
+# background job, so the panel's first draw after a bake stays quick.
+_previews = None
+
+
+def _preview_icon(path):
+    global _previews
+    import os
+    try:
+        key = "%s:%d" % (path, os.stat(path).st_mtime_ns)
+    except OSError:
+        return 0
+    if _previews is None:
+        import bpy.utils.previews
+        _previews = bpy.utils.previews.new()
+    if key not in _previews:
+        _previews.clear()
+        _previews.load(key, path, "IMAGE")
+    return _previews[key].icon_id
+
+
+def free_previews():
+    global _previews
+    if _previews is not None:
+        import bpy.utils.previews
+        bpy.utils.previews.remove(_previews)
+        _previews = None
 
 
 def _wrap(text, width):

@@ -131,13 +131,13 @@ def addon(submodule):
     return sys.modules[ADDON[0] + "." + submodule]
 
 
-def screenshot(name):
-    """The Properties editor as the X server shows it (ImageMagick's import)."""
+def screenshot(name, whole=False):
+    """The Properties editor (or the whole screen) as the X server shows it (ImageMagick's import)."""
     path = os.path.join(WORK, name + ".png")
     win, area, _ = properties_area()
     top = win.height - (area.y + area.height)
-    subprocess.Popen(["import", "-window", "root", "-crop", "%dx%d+%d+%d" % (area.width, area.height, area.x, top),
-                      path], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    crop = [] if whole else ["-crop", "%dx%d+%d+%d" % (area.width, area.height, area.x, top)]
+    subprocess.Popen(["import", "-window", "root", *crop, path], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     RESULT["screenshots"].append(path)
 
 
@@ -305,6 +305,29 @@ def scenario():
     screenshot("image_after")
     yield 1.0
     folder = RESULT["bakes"]["image"]["out"]
+    # Open Output Folder with no file manager: the panel says where the files are.
+    path_env = os.environ.get("PATH", "")
+    os.environ["PATH"] = ""
+    try:
+        with bpy.context.temp_override(window=win, area=area, region=region):
+            bpy.ops.iblbake.open_output()
+    finally:
+        os.environ["PATH"] = path_env
+    RESULT["open_folder"] = {"status": scene.iblbake.last_status, "clipboard": bpy.context.window_manager.clipboard}
+    yield 0.5
+    # Open Preview: no Image Editor on this screen, so a new window shows it.
+    with bpy.context.temp_override(window=win, area=area, region=region):
+        bpy.ops.iblbake.open_preview()
+    yield 2.0
+    editors = [(a.spaces.active.image.name if a.spaces.active.image else None)
+               for w in bpy.context.window_manager.windows for a in w.screen.areas if a.type == "IMAGE_EDITOR"]
+    RESULT["open_preview"] = {"windows": len(bpy.context.window_manager.windows), "image_editors": editors}
+    screenshot("preview_window", whole=True)
+    yield 1.5
+    for extra in list(bpy.context.window_manager.windows)[1:]:  # back to one window: Esc goes to the first
+        with bpy.context.temp_override(window=extra):
+            bpy.ops.wm.window_close()
+    yield 0.5
     yield from cancel_at("image_read_esc", "Reading the world image", "esc", folder)
     yield from cancel_at("image_check_button", "Checking for changes", "button", folder)
     yield from cancel_at("image_specular_esc", "Specular levels", "esc", folder, face_size=1024)

@@ -134,6 +134,12 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
         assert c["status"].startswith("Cancelled"), (name, c)
         assert c["intact"], (name, c)
 
+    # Open Output Folder without a file manager says where the files are; Open Preview shows the sheet.
+    folder = res["bakes"]["image"]["out"]
+    assert "No file manager" in res["open_folder"]["status"] and folder in res["open_folder"]["status"], res
+    assert res["open_folder"]["clipboard"] == folder
+    assert "iblbake preview" in res["open_preview"]["image_editors"], res["open_preview"]
+
     # No world: refused in words, nothing written.
     assert "no world" in res["no_world"]["status"] and not res["no_world"]["written"], res["no_world"]
     for shot in res["screenshots"]:
