@@ -18,7 +18,8 @@ def engine_items():
     items = []
     for i, p in enumerate(table):
         name = str(p["name"])
-        label = str(p.get("label") or p.get("engine") or name)
+        first = str(p.get("description", "")).split(" ")[0].strip(",;:")
+        label = first if first.lower().startswith(name.lower()) else name.capitalize()  # "three.js", "Khronos"
         items.append((name, label, str(p.get("description", "")), 1 << i))
     return items
 
