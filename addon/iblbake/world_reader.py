@@ -418,6 +418,7 @@ SUN_DISC_MIN_WIDTH = 1024
 def _has_sun_disc(world):
     if world is None or not world.use_nodes or world.node_tree is None:
         return False
-    return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type == "NISHITA" and n.sun_disc and not n.mute
-               for n in world.node_tree.nodes)
+    # Nishita's sky (Blender 5 splits it into single and multiple scattering) draws a sun disc.
+    return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type not in ("PREETHAM", "HOSEK_WILKIE")
+               and getattr(n, "sun_disc", False) and not n.mute for n in world.node_tree.nodes)
 

@@ -187,7 +187,8 @@ def sky_world():
     world.use_nodes = True
     nt = world.node_tree
     sky = nt.nodes.new("ShaderNodeTexSky")
-    sky.sky_type = "NISHITA"
+    types = [item.identifier for item in sky.bl_rna.properties["sky_type"].enum_items]
+    sky.sky_type = "NISHITA" if "NISHITA" in types else types[-1]  # Blender 5: the scattering skies
     nt.links.new(sky.outputs["Color"], nt.nodes["Background"].inputs["Color"])
     return world
 
