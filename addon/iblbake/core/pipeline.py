@@ -146,7 +146,9 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         raise BakeError("cannot write into %s: %s" % (parent or ".", e.strerror or e)) from e
     if progress is not None and progress("hashing", 0.0) is False:
         raise core.Cancelled()
+    hash_start = time.perf_counter()
     pixel_digest = pixels_sha256(pixels) if pixels is not None else None
+    hash_seconds = time.perf_counter() - hash_start
     digest = content_hash(source, pixel_digest, opts, settings, core.__version__)
     if not settings.force and existing_hash(out_dir) == digest:
         return BakeReport("unchanged", out_dir, digest)
@@ -156,6 +158,8 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
     blender["needs"] = needs.to_json() if needs is not None else None
     blender["auto_skip"] = settings.auto_skip
     blender["content_hash"] = digest
+    if "waited" in blender:  # the stages before the native bake, as the UI's job ran them
+        blender["waited"] = dict(blender["waited"], hash_pixels=round(hash_seconds, 4))
     opts["manifest_extra"] = {"blender": blender}
     cache = settings.lut_cache_dir or core.default_lut_cache_dir()
     if cache:
