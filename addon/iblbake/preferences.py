@@ -36,10 +36,12 @@ def draw_engines(layout, props):
     """The engine presets as toggles (several may be ticked)."""
     if not ENGINE_ITEMS:
         return
-    col = layout.column(heading="Engines")
-    flow = col.grid_flow(columns=3, even_columns=True, align=True)
-    for name, label, _desc, _bit in ENGINE_ITEMS:
-        flow.prop_enum(props, "engines", name, text=label)
+    col = layout.column(align=True)
+    col.label(text="Also Export For")
+    for start in range(0, len(ENGINE_ITEMS), 4):
+        row = col.row(align=True)
+        for name, label, _desc, _bit in ENGINE_ITEMS[start:start + 4]:
+            row.prop_enum(props, "engines", name, text=label)
 
 
 def draw_options(layout, props, engines=True):
