@@ -256,3 +256,21 @@ def test_file_read_off_the_main_thread_matches_blenders_pixels(tmp_path):
     img = read_file_pixels(WorldSource(IMAGE, image_path=alpha, colorspace="Linear", is_float=True), ib.read_image,
                            alpha_matters=False)  # channel-packed alpha: the colour is read as it is
     assert img.shape == (16, 32, 3) and float(img.min()) == 1.0
+
+
+def test_engine_presets_and_the_preview_are_in_the_content_hash():
+    """Ticking an engine or the preview sheet changes the files, so the hash;
+    presets switch the scene's skipping off (engines need every level)."""
+    src = WorldSource(IMAGE)
+    base = BakeSettings(out_dir="/x")
+    cube = N.needs_from_lobes(N.principled_lobes("m", (0.5, 0.5), (0, 0), (0.5, 0.5)), 9, 1)
+
+    def digest(s):
+        return pipeline.content_hash(src, "0" * 64, pipeline.native_options(s, cube), s, "1")
+    three = BakeSettings(out_dir="/x", presets=["three"])
+    assert digest(base) != digest(three) != digest(BakeSettings(out_dir="/x", presets=["three", "bevy"]))
+    assert digest(base) != digest(BakeSettings(out_dir="/x", preview=False))
+    assert digest(base) == digest(BakeSettings(out_dir="/elsewhere"))
+    assert pipeline.native_options(base, cube)["first_level"] == 4  # auto_skip on: level 4 of 9 only
+    opts = pipeline.native_options(three, cube)
+    assert "first_level" not in opts and opts["presets"] == ["three"] and opts["preview"] is True
