@@ -106,19 +106,24 @@ def record(scene_name, report=None, error=None, cancelled=False, stages=None, ou
     if cancelled:
         state.set_last(scene_name, state.Last(
             status="Cancelled: the earlier bake is unchanged", kind="CANCEL", out_dir=old.out_dir or out_dir,
-            files=old.files, total_bytes=old.total_bytes, preview=old.preview, content_hash=old.content_hash))
+            files=old.files, total_bytes=old.total_bytes, preview=old.preview, content_hash=old.content_hash,
+            thumbnail=old.thumbnail))
+        _redraw()
         return
     if error is not None:
         state.set_last(scene_name, state.Last(
             status="Failed: %s" % error, kind="ERROR", error=str(error), out_dir=old.out_dir or out_dir,
-            files=old.files, total_bytes=old.total_bytes, preview=old.preview, content_hash=old.content_hash))
+            files=old.files, total_bytes=old.total_bytes, preview=old.preview, content_hash=old.content_hash,
+            thumbnail=old.thumbnail))
+        _redraw()
         return
     files, total = describe.bake_files(report.out_dir)
     preview = os.path.join(report.out_dir, "preview.png")
     state.set_last(scene_name, state.Last(
         status=report.summary(), kind="INFO", out_dir=report.out_dir, content_hash=report.content_hash,
         files=files, total_bytes=total, preview=preview if os.path.isfile(preview) else "",
-        stages=list(stages or [])))
+        thumbnail=getattr(report, "thumbnail", None), stages=list(stages or [])))
+    _redraw()
 
 
 def _print_stages(stage, fraction, _last=[None]):
@@ -131,6 +136,8 @@ def _print_stages(stage, fraction, _last=[None]):
 
 def _redraw(context=None):
     wm = bpy.context.window_manager if context is None else context.window_manager
+    if wm is None:  # background mode
+        return
     for window in wm.windows:
         for area in window.screen.areas:
             if area.type in ("PROPERTIES", "STATUSBAR", "IMAGE_EDITOR"):
@@ -242,7 +249,14 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
                 if pre_name:
                     stages.append((pre_name, time.perf_counter() - t))
             extra["waited"] = {name: round(sec, 4) for name, sec in stages}
-            return pipeline.bake(source, pixels, settings, needs, progress, extra)
+            report = pipeline.bake(source, pixels, settings, needs, progress, extra)
+            preview = os.path.join(report.out_dir, "preview.png")
+            if os.path.isfile(preview):  # the panel's thumbnail, made here rather than on the main thread
+                try:
+                    report.thumbnail = describe.thumbnail(native.load().read_image(preview))
+                except (OSError, RuntimeError, ValueError):
+                    pass
+            return report
 
         self._job = BakeJob(work).start()
         self._step = "bake"

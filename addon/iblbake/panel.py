@@ -110,7 +110,7 @@ def _draw_last(layout, context, last):
             row.label(text=describe.human_size(size))
     if last.preview:
         box = layout.box()
-        icon = _preview_icon(last.preview)
+        icon = _preview_icon(last)
         if icon:
             # As wide as the panel allows, up to 400 pixels (Blender's preview icon has 256).
             scale = context.preferences.view.ui_scale
@@ -119,24 +119,25 @@ def _draw_last(layout, context, last):
         box.operator(operators.IBLBAKE_OT_open_preview.bl_idname, icon="IMAGE_DATA")
 
 
-# preview.png as a custom preview: Blender reads the file for the icon in a
-# background job, so the panel's first draw after a bake stays quick.
+# The preview sheet's thumbnail (made by the bake's worker thread) as a custom
+# preview: setting its pixels is quick; nothing is read on the main thread.
 _previews = None
 
 
-def _preview_icon(path):
+def _preview_icon(last):
     global _previews
-    import os
-    try:
-        key = "%s:%d" % (path, os.stat(path).st_mtime_ns)
-    except OSError:
+    thumb = last.thumbnail
+    if thumb is None:
         return 0
+    key = "%s:%d" % (last.preview, id(thumb))
     if _previews is None:
         import bpy.utils.previews
         _previews = bpy.utils.previews.new()
     if key not in _previews:
         _previews.clear()
-        _previews.load(key, path, "IMAGE")
+        item = _previews.new(key)
+        item.image_size = (thumb.shape[1], thumb.shape[0])
+        item.image_pixels_float.foreach_set(thumb.reshape(-1))
     return _previews[key].icon_id
 
 
@@ -181,6 +182,8 @@ class IBLBAKE_PT_world(bpy.types.Panel):
         icon, text = _world_line(scene)
         for i, line in enumerate(_wrap(text, width)):
             layout.label(text=line, icon=icon if i == 0 else "BLANK1")
+        if scene.world is None:  # nothing to bake: the line above says what to do
+            return
 
         lines, folder, folder_error = _plan_lines(context, scene)
         col = layout.column(align=True)

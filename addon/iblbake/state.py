@@ -25,6 +25,7 @@ class Last:
     files: List[Tuple[str, int]] = field(default_factory=list)
     total_bytes: int = 0
     preview: str = ""              # preview.png's path, when the bake wrote one
+    thumbnail: object = None       # its small sRGB RGBA copy for the panel (describe.thumbnail), or None
     stages: List[Tuple[str, float]] = field(default_factory=list)  # what the user waited for, in seconds
 
 

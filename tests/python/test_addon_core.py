@@ -274,3 +274,13 @@ def test_engine_presets_and_the_preview_are_in_the_content_hash():
     assert pipeline.native_options(base, cube)["first_level"] == 4  # auto_skip on: level 4 of 9 only
     opts = pipeline.native_options(three, cube)
     assert "first_level" not in opts and opts["presets"] == ["three"] and opts["preview"] is True
+
+
+def test_thumbnail_is_small_srgb_and_bottom_up():
+    img = np.zeros((100, 300, 3), np.float32)
+    img[:50] = 0.214  # linear 0.214 is sRGB 0.5; the top half
+    t = D.thumbnail(img, 150)
+    assert t.shape == (50, 150, 4) and t.dtype == np.float32
+    np.testing.assert_allclose(t[-1, :, :3], 0.5, atol=2e-3)  # the top row is last (bottom-up)
+    np.testing.assert_allclose(t[0, :, :3], 0.0)
+    assert (t[..., 3] == 1).all()

@@ -108,3 +108,24 @@ def grouped_files(files: List[Tuple[str, int]]) -> List[Tuple[str, int]]:
         else:
             out.append(("specular_%d-%d%s (%d files)" % (first, last, ext, len(items)), sum(s for _, s in items)))
     return out
+
+
+def thumbnail(linear_rgb, width: int = 256):
+    """A small display-encoded (sRGB) RGBA copy of an image read linear
+    (iblbake_core.read_image of preview.png), rows bottom-up as Blender's
+    previews hold them: (h, width, 4) float32. Box filtered; numpy only, so a
+    worker thread makes it."""
+    import numpy as np
+    img = np.asarray(linear_rgb, dtype=np.float32)
+    h, w = img.shape[:2]
+    width = max(1, min(width, w))
+    height = max(1, int(round(h * width / w)))
+    ys = (np.arange(height + 1) * h // height).astype(int)
+    xs = (np.arange(width + 1) * w // width).astype(int)
+    rows = np.add.reduceat(img, ys[:-1], axis=0) / np.diff(ys)[:, None, None]
+    small = np.add.reduceat(rows, xs[:-1], axis=1) / np.diff(xs)[None, :, None]
+    small = np.clip(small, 0.0, 1.0)
+    enc = np.where(small <= 0.0031308, small * 12.92, 1.055 * np.power(small, 1 / 2.4) - 0.055)
+    out = np.ones((height, width, 4), np.float32)
+    out[..., :3] = enc
+    return np.ascontiguousarray(out[::-1])

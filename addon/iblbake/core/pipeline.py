@@ -30,6 +30,7 @@ class BakeReport:
     content_hash: str
     manifest: dict = field(default_factory=dict)
     seconds: float = 0.0
+    thumbnail: Optional[object] = None  # the preview sheet, small, for the panel (set by the UI's job)
 
     def summary(self) -> str:
         if self.status == "unchanged":
