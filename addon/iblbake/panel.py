@@ -112,10 +112,10 @@ def _draw_last(layout, context, last):
         box = layout.box()
         icon = _preview_icon(last)
         if icon:
-            # As wide as the panel allows, up to 400 pixels (Blender's preview icon has 256).
+            # A square of up to 256 pixels (the thumbnail's width), as the panel's width allows.
             scale = context.preferences.view.ui_scale
             width = context.region.width if context.region else 300
-            box.template_icon(icon_value=icon, scale=max(4.0, min(width - 40 * scale, 400 * scale) / (20.0 * scale)))
+            box.template_icon(icon_value=icon, scale=max(4.0, min(width - 40 * scale, 256 * scale) / (20.0 * scale)))
         box.operator(operators.IBLBAKE_OT_open_preview.bl_idname, icon="IMAGE_DATA")
 
 

@@ -302,7 +302,12 @@ def scenario():
     yield 1.0
     yield from redraw_baseline()
     yield from bake_and_watch("image")
-    yield 1.5
+    yield 1.0
+    # Scroll the panel (the mouse wheel, through the X server) to show the files and the preview.
+    top = win.height - (area.y + area.height)
+    subprocess.Popen(["xdotool", "mousemove", str(area.x + area.width // 2), str(top + area.height // 2),
+                      "click", "--repeat", "25", "5"])
+    yield 2.0
     screenshot("image_after")
     yield 1.0
     folder = RESULT["bakes"]["image"]["out"]
