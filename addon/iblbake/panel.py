@@ -188,7 +188,10 @@ class IBLBAKE_PT_world(bpy.types.Panel):
         lines, folder, folder_error = _plan_lines(context, scene)
         col = layout.column(align=True)
         col.label(text="Output Folder")
-        col.prop(props, "output_dir", text="")
+        try:  # Blender 4.1+: the folder used while the field is empty, greyed inside it
+            col.prop(props, "output_dir", text="", placeholder=operators.output_template(context, scene))
+        except TypeError:
+            col.prop(props, "output_dir", text="")
         if folder:
             col.label(text=describe.shorten_middle(folder, width), icon="FILE_FOLDER")
         else:

@@ -339,6 +339,17 @@ def scenario():
     yield from cancel_at("image_specular_esc", "Specular levels", "esc", folder, face_size=1024)
     yield from cancel_at("image_specular_button", "Specular levels", "button", folder)
 
+    # "Bake For: This Scene's Materials": the panel says what the default cube leaves out.
+    scene.iblbake.auto_skip = True
+    yield 1.0
+    RESULT["scene_only_lines"] = addon("panel")._plan_lines(bpy.context, scene)[0]
+    subprocess.Popen(["xdotool", "mousemove", str(area.x + area.width // 2), str(top + area.height // 2),
+                      "click", "--repeat", "25", "4"])  # back to the top
+    yield 2.0
+    screenshot("bake_for_scene")
+    yield 1.0
+    scene.iblbake.auto_skip = False
+
     # A Sky Texture world: Cycles renders it in a child Blender.
     scene.world = sky_world()
     scene.iblbake.use_scene_options = True

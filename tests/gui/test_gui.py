@@ -140,6 +140,10 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
     assert res["open_folder"]["clipboard"] == folder
     assert "iblbake preview" in res["open_preview"]["image_editors"], res["open_preview"]
 
+    # This scene's materials: the default cube's Principled BSDF at roughness 0.5 reads level 4 of 9.
+    assert res["scene_only_lines"] == [
+        "Only 1 of 9 specular levels (level 4): this scene's materials all use roughness 0.5"], res["scene_only_lines"]
+
     # No world: refused in words, nothing written.
     assert "no world" in res["no_world"]["status"] and not res["no_world"]["written"], res["no_world"]
     for shot in res["screenshots"]:
