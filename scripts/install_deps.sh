@@ -28,8 +28,9 @@ LIBS=(libopenimageio-dev openimageio-tools libopenexr-dev libpng-dev libtbb-dev
 PYTHON=(python3-dev python3-numpy pybind11-dev)
 TESTS=(libgtest-dev libgmock-dev libbenchmark-dev python3-pytest python3-matplotlib time)
 BLENDER=(blender blender-data)
+GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
 
-PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}")
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${GUI[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -62,6 +62,8 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     bake->add_option("--exposure", wo.exposure, "PNG exposure in stops")->capture_default_str();
     bake->add_option("--rgbm-range", wo.rgbm_range, "RGBM range")->capture_default_str();
+    bake->add_flag("--preview", wo.preview,
+                   "also write preview.png: irradiance, LUT, every specular level and spheres lit by the bake");
     bake->add_flag("--no-irradiance", no_irr, "skip the irradiance cube");
     bake->add_flag("--no-specular", no_spec, "skip the specular chain");
     bake->add_flag("--no-lut", no_lut, "skip the BRDF LUT");

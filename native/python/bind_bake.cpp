@@ -105,6 +105,7 @@ Parsed parse_options(const pybind11::dict& kw) {
             else value_error("unknown png_encoding '" + e + "' (expected 'srgb' or 'rgbm')");
         } else if (key == "exposure") wo.exposure = float(as_float());
         else if (key == "rgbm_range") wo.rgbm_range = float(as_float());
+        else if (key == "preview") wo.preview = as_bool();
         else if (key == "progress") {
             if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
             progress = pybind11::reinterpret_borrow<pybind11::object>(v);
@@ -241,7 +242,7 @@ eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
 specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
 lut_row_nodes (0: integrate every LUT texel; k >= 4: k integrals per row, spline between),
 hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
-rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path,
+rgbm_range, preview (also write preview.png, a contact sheet), progress (callable(stage, fraction) -> bool; False cancels), source_path,
 source_sha256 (the manifest's hash, when the caller has it already; else a written bake hashes the file
 or the pixels, and an unwritten one leaves it null),
 lut_cache_dir (a folder where BRDF LUTs are reused across bakes; none by default), manifest_extra (a dict of

@@ -31,7 +31,9 @@ class BakeSettings:
     irradiance: bool = True
     specular: bool = True
     lut: bool = True
-    auto_skip: bool = True   # skip what the scene's materials don't use
+    presets: List[str] = field(default_factory=list)  # engine presets (iblbake_core.presets()), in table order
+    preview: bool = True     # preview.png: the contact sheet
+    auto_skip: bool = True   # skip what the scene's materials don't use (the UI defaults to off: every roughness)
     force: bool = False      # bake even when the world and settings are unchanged
     render_width: int = RENDER_WIDTH
     render_samples: int = RENDER_SAMPLES

@@ -8,6 +8,7 @@
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/image/encode.h"
+#include "iblbake/image/preview.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
 
@@ -49,6 +50,15 @@ std::string primary_file(const std::string& stem, const WriteOptions& wo) {
 }
 
 }  // namespace
+
+void write_preview(const std::string& path, const BakeResult& r) {
+    const Image sheet = render_preview(r);
+    std::vector<float> rgba(size_t(sheet.width) * sheet.height * 4, 1.0f);
+    for (size_t k = 0; k < size_t(sheet.width) * sheet.height; ++k)
+        for (int c = 0; c < 3; ++c) rgba[4 * k + c] = sheet.pixels[3 * k + c];
+    encode_srgb_in_place(rgba.data(), rgba.size(), 0.0f);
+    io::write_png8(path, sheet.width, sheet.height, 4, rgba);
+}
 
 void WriteOptions::validate() const {
     if (!exr && !png) throw std::invalid_argument("no output format: ask for exr, png or both");
@@ -124,6 +134,12 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                                 {"decode", "linear = rgb * a * range * 2^-exposure"},
                                 {"alpha", "holds M on faces (not 1); 0 on unused cross cells"}};
     }
+    if (wo.preview)
+        m["preview"] = {{"file", "preview.png"},
+                        {"radiance_scale", preview_scale(r)},
+                        {"shows", "irradiance, BRDF LUT, every specular level, metal and dielectric spheres per level "
+                                  "lit through the split sum; radiance times radiance_scale (a white diffuse surface at 0.5), "
+                                  "Reinhard's curve with white 4, sRGB"}};
     json timings = json::object();
     for (const auto& [stage, s] : r.timings) timings[stage] = s;
     if (write_seconds >= 0.0) timings["write"] = write_seconds;
@@ -190,6 +206,7 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
                 e["brdf_lut.png"] = "unorm16";
             }
         });
+    if (wo.preview) jobs.push_back([&](json& e) { write_preview((dir / "preview.png").string(), r); e["preview.png"] = "srgb8"; });
     std::vector<json> parts(jobs.size(), json::object());
     parallel_for(0, int(jobs.size()), [&](int k) { jobs[k](parts[k]); });
     json encodings = json::object();
