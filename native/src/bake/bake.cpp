@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 
 #include "iblbake/bake/lut_cache.h"
@@ -46,6 +47,54 @@ std::vector<LevelJob> level_jobs(const BakeOptions& o) {
     std::stable_sort(jobs.begin(), jobs.end(),
                      [](const LevelJob& a, const LevelJob& b) { return (a.roughness > 0.0) < (b.roughness > 0.0); });
     return jobs;
+}
+
+// Which levels are integrated together (specular_hierarchical_group): at a
+// face size where engine presets asked for extra levels, the levels of that
+// face (SPEC's among them), in order of roughness, up to four at a time from
+// the smallest and within a factor 1.6 of it (the narrowest lobe's traversal
+// serves them all, on finer bins than the others need). A face with no extra
+// level keeps SPEC's level to itself, so a bake without presets is unchanged;
+// under FIS every level is integrated alone. The groups come in the order of
+// their first job.
+std::vector<std::vector<size_t>> level_groups(const std::vector<LevelJob>& jobs, bool hierarchical) {
+    std::vector<std::vector<size_t>> groups;
+    std::vector<char> grouped(jobs.size(), 0);
+    auto has_extra = [&](int face) {
+        for (const LevelJob& j : jobs)
+            if (j.spec_level < 0 && j.roughness > 0.0 && j.face_size == face) return true;
+        return false;
+    };
+    auto candidate = [&](const LevelJob& j) { return hierarchical && j.roughness > 0.0 && has_extra(j.face_size); };
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        if (grouped[i] || !candidate(jobs[i])) continue;
+        // Every candidate of this face, by roughness, split greedily.
+        std::vector<size_t> c;
+        for (size_t k = 0; k < jobs.size(); ++k)
+            if (candidate(jobs[k]) && jobs[k].face_size == jobs[i].face_size) c.push_back(k);
+        std::stable_sort(c.begin(), c.end(),
+                         [&](size_t x, size_t y) { return jobs[x].roughness < jobs[y].roughness; });
+        std::vector<size_t> g;
+        std::vector<double> r;
+        for (size_t k : c) {
+            r.push_back(jobs[k].roughness);
+            if (!g.empty() && (g.size() == 4 || jobs[k].roughness > 1.6 * jobs[g[0]].roughness ||
+                               !specular_group_safe(r))) {
+                groups.push_back(g);
+                g.clear();
+                r = {jobs[k].roughness};
+            }
+            g.push_back(k);
+        }
+        groups.push_back(g);
+        for (size_t k : c) grouped[k] = 1;
+    }
+    for (size_t i = 0; i < jobs.size(); ++i)
+        if (!grouped[i]) groups.push_back({i});
+    std::sort(groups.begin(), groups.end(), [](const std::vector<size_t>& a, const std::vector<size_t>& b) {
+        return *std::min_element(a.begin(), a.end()) < *std::min_element(b.begin(), b.end());
+    });
+    return groups;
 }
 
 // The smallest positive roughness among the levels baked (0 when none is).
@@ -347,7 +396,26 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
             }
-            for (const LevelJob& job : jobs) {
+            const std::string method_h =
+                "hierarchical kernel sum over exact bins (eps " + std::to_string(o.hierarchical.eps).substr(0, 4) + ")";
+            auto finish = [&](const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method,
+                              bool norm_cached) {
+                if (job.spec_level >= 0) {
+                    r.specular.push_back(std::move(level));
+                    r.specular_normaliser_from_cache.push_back(norm_cached);
+                    r.specular_levels.push_back(job.spec_level);
+                    r.roughness.push_back(job.roughness);
+                    r.samples_per_texel.push_back(samples);
+                    r.specular_methods.push_back(method);
+                } else {
+                    r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method,
+                                                norm_cached});
+                }
+                advance(w_spec / double(jobs.size()));
+                report("specular", done);
+            };
+            for (const std::vector<size_t>& group : level_groups(jobs, !fis)) {
+                const LevelJob& job = jobs[group[0]];
                 const int n = job.face_size;
                 const double rough = job.roughness;
                 if (rough > 0.0 && !fis && owned) {
@@ -358,6 +426,43 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     if (o.extra.keep_source) r.source = std::move(*owned);
                     std::vector<float>().swap(owned->pixels);
                     owned = nullptr;
+                }
+                const size_t texels = size_t(6) * n * n;
+                if (group.size() > 1) {
+                    // Levels at nearby roughness in one pass; their normalisers
+                    // are cached under a key naming the group.
+                    std::string members = "-group";
+                    for (size_t g : group) {
+                        char buf[32];
+                        std::snprintf(buf, sizeof buf, "-%.17g", jobs[g].roughness);
+                        members += buf;
+                    }
+                    std::vector<Cubemap> levels(group.size(), Cubemap(n));
+                    std::vector<std::vector<float>> norms(group.size());
+                    std::vector<std::string> keys;
+                    std::vector<SpecularGroupTarget> targets;
+                    for (size_t k = 0; k < group.size(); ++k) {
+                        keys.push_back(specular_normaliser_key(n, jobs[group[k]].roughness, o.hierarchical.eps,
+                                                               o.hierarchical.tile, finest_bins) +
+                                       members);
+                        if (lut_cache) {
+                            if (auto cached = lut_cache->load_floats(keys[k], texels)) norms[k] = std::move(*cached);
+                        }
+                    }
+                    std::vector<char> cached(group.size());
+                    for (size_t k = 0; k < group.size(); ++k) {
+                        cached[k] = norms[k].size() == texels;
+                        targets.push_back({&levels[k], jobs[group[k]].roughness, &norms[k]});
+                    }
+                    const double bins = specular_hierarchical_group(targets, tree, o.hierarchical);
+                    std::string with;
+                    for (size_t g : group) with += (with.empty() ? "" : ", ") + std::to_string(jobs[g].roughness);
+                    for (size_t k = 0; k < group.size(); ++k) {
+                        if (lut_cache && !cached[k]) lut_cache->store_floats(keys[k], norms[k]);
+                        finish(jobs[group[k]], std::move(levels[k]), size_t(std::lround(bins)),
+                               method_h + ", one pass for roughness " + with, cached[k] != 0);
+                    }
+                    continue;
                 }
                 Cubemap level(n);
                 bool norm_cached = false;
@@ -370,7 +475,6 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 } else if (!fis) {
                     // The level's normaliser from the cache when there, else made and kept.
                     std::vector<float> norm;
-                    const size_t texels = size_t(6) * n * n;
                     const std::string key = specular_normaliser_key(n, rough, o.hierarchical.eps,
                                                                     o.hierarchical.tile, finest_bins);
                     if (lut_cache) {
@@ -380,25 +484,13 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     const double bins = specular_hierarchical(level, tree, rough, o.hierarchical, &norm);
                     if (lut_cache && !norm_cached) lut_cache->store_floats(key, norm);
                     samples = size_t(std::lround(bins));
-                    method = "hierarchical kernel sum over exact bins (eps " +
-                             std::to_string(o.hierarchical.eps).substr(0, 4) + ")";
+                    method = method_h;
                 } else {
                     samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality) +
                               split.hot.size();
                     method = "filtered importance sampling + hot texels";
                 }
-                if (job.spec_level >= 0) {
-                    r.specular.push_back(std::move(level));
-                    r.specular_normaliser_from_cache.push_back(norm_cached);
-                    r.specular_levels.push_back(job.spec_level);
-                    r.roughness.push_back(rough);
-                    r.samples_per_texel.push_back(samples);
-                    r.specular_methods.push_back(method);
-                } else {
-                    r.extra_specular.push_back({n, rough, std::move(level), samples, method, norm_cached});
-                }
-                advance(w_spec / double(jobs.size()));
-                report("specular", done);
+                finish(job, std::move(level), samples, method, norm_cached);
             }
             clock.done("specular");
         }

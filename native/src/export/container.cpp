@@ -20,6 +20,14 @@ void check_chain(const CubeChain& chain) {
     }
 }
 
+void pack_face(const Cubemap& cube, Mirror m, int face, PixelFormat f, uint8_t* out, PackStats& stats) {
+    const size_t row_bytes = size_t(cube.size) * texel_bytes(f);
+    for (int j = 0; j < cube.size; ++j) {
+        const RowSource r = mirrored_row(cube, m, face, j);
+        pack_texels(r.first, size_t(cube.size), f, out + j * row_bytes, stats, r.step);
+    }
+}
+
 Encoder encoder_for(Container c) {
     switch (c) {
         case Container::Ktx2: return &encode_ktx2;

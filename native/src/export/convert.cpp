@@ -41,6 +41,14 @@ Cubemap mirror_cube(const Cubemap& cube, Mirror m) {
     return out;
 }
 
+RowSource mirrored_row(const Cubemap& cube, Mirror m, int face, int j) {
+    const int n = cube.size;
+    const TexelRef a = mirror_source(m, face, 0, j, n);
+    if (n == 1) return {cube.at(a.face, a.i, a.j), 3};
+    const TexelRef b = mirror_source(m, face, 1, j, n);
+    return {cube.at(a.face, a.i, a.j), b.i > a.i ? std::ptrdiff_t(3) : std::ptrdiff_t(-3)};
+}
+
 Sh9 mirror_sh9(const Sh9& sh, Mirror m) {
     Sh9 out = sh;
     if (m == Mirror::X)

@@ -64,9 +64,8 @@ Encoded encode_dds(const CubeChain& chain, const EncodeOptions& o) {
     size_t at = 148;
     for (int face = 0; face < 6; ++face)
         for (const Cubemap* c : chain.levels) {
-            const size_t texels = size_t(c->size) * c->size;
-            pack_texels(c->pixels.data() + size_t(face) * texels * 3, texels, o.format, b.data() + at, e.stats);
-            at += texels * tb;
+            pack_face(*c, chain.mirror, face, o.format, b.data() + at, e.stats);
+            at += size_t(c->size) * c->size * tb;
         }
     return e;
 }

@@ -17,18 +17,59 @@ namespace {
 constexpr uint8_t kMagic[8] = {0x86, 0x16, 0x87, 0x96, 0xF6, 0xD6, 0x96, 0x36};
 }
 
-// toRGBD in float, as the shader computes it, then stored as
-// round(clamp(v) * 255) as DumpDataAsync does.
+namespace {
+// 8-bit gamma encoding round(255 v^(1/2.2)) of v in [0, 1], exactly and
+// without pow: a table over the float's exponent and top 10 mantissa bits
+// gives the byte at the start of v's interval, and one comparison with the
+// next rounding threshold ((k + 1/2) / 255)^2.2 finishes it (an interval is
+// narrower than the gap between two thresholds).
+class GammaBytes {
+public:
+    GammaBytes() : table_(kEntries) {
+        for (int k = 0; k < 255; ++k) next_[k] = float(std::pow((k + 0.5) / 255.0, 2.2));
+        next_[255] = 2.0f;  // never reached for v <= 1
+        for (uint32_t i = 0; i < kEntries; ++i) {
+            const uint32_t bits = (i + kFirst) << 13;
+            float v;
+            std::memcpy(&v, &bits, 4);
+            table_[i] = slow(v);
+        }
+    }
+    uint8_t operator()(float v) const {
+        uint32_t bits;
+        std::memcpy(&bits, &v, 4);
+        if (!(v > 0.0f)) return 0;
+        const uint32_t key = bits >> 13;
+        if (key < kFirst) return 0;  // below 2^-20: under the first threshold (1.1e-6)
+        if (key >= kFirst + kEntries) return 255;
+        uint8_t b = table_[key - kFirst];
+        while (b < 255 && v >= next_[b]) ++b;
+        return b;
+    }
+
+private:
+    static constexpr uint32_t kFirst = (127u - 20u) << 10, kEntries = (21u << 10) + 1;
+    uint8_t slow(float v) const {
+        int b = 0;
+        while (b < 255 && v >= next_[b]) ++b;
+        return uint8_t(b);
+    }
+    float next_[256];
+    std::vector<uint8_t> table_;
+};
+const GammaBytes kGammaBytes;
+}  // namespace
+
+// toRGBD as the shader computes it (D from the largest channel, gamma 2.2),
+// stored as round(clamp(v) * 255) as DumpDataAsync does; the gamma rounding
+// is exact (thresholds) where the GPU's pow rounds within a byte's width.
 void rgbd_encode(const float rgb[3], uint8_t out[4]) {
     float c[3];
     for (int k = 0; k < 3; ++k) c[k] = rgb[k] > 0.0f ? rgb[k] : 0.0f;  // NaN and negatives to 0
     const float max_rgb = std::max(std::max(c[0], std::max(c[1], c[2])), 1e-7f);
     float d = std::max(255.0f / max_rgb, 1.0f);
     d = std::clamp(std::floor(d) / 255.0f, 0.0f, 1.0f);
-    for (int k = 0; k < 3; ++k) {
-        const float g = std::pow(c[k] * d, 1.0f / 2.2f);
-        out[k] = uint8_t(std::lround(std::clamp(g, 0.0f, 1.0f) * 255.0f));
-    }
+    for (int k = 0; k < 3; ++k) out[k] = kGammaBytes(std::min(c[k] * d, 1.0f));
     out[3] = uint8_t(std::lround(d * 255.0f));
 }
 
@@ -56,13 +97,15 @@ Encoded encode_env(const CubeChain& chain, const EncodeOptions& o) {
         const size_t texels = size_t(c->size) * c->size;
         rgba.resize(texels * 4);
         for (int face = 0; face < 6; ++face) {
-            const float* src = c->pixels.data() + size_t(face) * texels * 3;
-            for (size_t t = 0; t < texels; ++t) {
-                const float* v = src + 3 * t;
-                const float m = std::max({v[0], v[1], v[2]});
-                e.stats.largest = std::max(e.stats.largest, m);
-                e.stats.clamped += m > 255.0f;
-                rgbd_encode(v, rgba.data() + 4 * t);
+            for (int j = 0; j < c->size; ++j) {
+                const RowSource row = mirrored_row(*c, chain.mirror, face, j);
+                for (int i = 0; i < c->size; ++i) {
+                    const float* v = row.first + i * row.step;
+                    const float m = std::max({v[0], v[1], v[2]});
+                    e.stats.largest = std::max(e.stats.largest, m);
+                    e.stats.clamped += m > 255.0f;
+                    rgbd_encode(v, rgba.data() + 4 * (size_t(j) * c->size + i));
+                }
             }
             images.push_back(io::encode_png8(c->size, c->size, 4, rgba.data()));
         }

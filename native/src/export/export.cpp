@@ -31,23 +31,6 @@ std::vector<double> sh_coefficients(const std::array<Sh9, 3>& sh) {
 
 namespace {
 
-// A chain of cubes in the preset's convention; owns the mirrored copies.
-struct OwnedChain {
-    std::vector<Cubemap> owned;
-    CubeChain chain;
-};
-OwnedChain make_chain(const std::vector<const Cubemap*>& cubes, Mirror m) {
-    OwnedChain c;
-    if (m == Mirror::None) {
-        c.chain.levels = cubes;
-        return c;
-    }
-    c.owned.reserve(cubes.size());
-    for (const Cubemap* cube : cubes) c.owned.push_back(mirror_cube(*cube, m));
-    for (const Cubemap& cube : c.owned) c.chain.levels.push_back(&cube);
-    return c;
-}
-
 std::string sh_text(const std::array<Sh9, 3>& sh) {
     std::string s;
     char buf[64];
@@ -135,21 +118,22 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
         }
         m["specular"] = levels;
         m["lod_formula"] = lod_text(p, int(plan.levels.size()), plan.base_face);
-        const OwnedChain chain = make_chain(cubes, p.mirror);
+        const CubeChain chain{cubes, p.mirror};
         switch (p.container) {
-            case Container::Ktx2: put("specular", "specular.ktx2", encode_ktx2(chain.chain, eo)); break;
-            case Container::Dds: put("specular", "specular.dds", encode_dds(chain.chain, eo)); break;
+            case Container::Ktx2: put("specular", "specular.ktx2", encode_ktx2(chain, eo)); break;
+            case Container::Dds: put("specular", "specular.dds", encode_dds(chain, eo)); break;
             case Container::Ktx1: {
                 EncodeOptions k = eo;
                 k.key_values.emplace_back("sh", sh_text(filament_sh(sh)));
-                put("specular", "ibl.ktx", encode_ktx1(chain.chain, k));
-                if (p.skybox) put("skybox", "skybox.ktx", encode_ktx1(CubeChain{{chain.chain.levels[0]}}, eo));
+                put("specular", "ibl.ktx", encode_ktx1(chain, k));
+                if (p.skybox)
+                    put("skybox", "skybox.ktx", encode_ktx1(CubeChain{{chain.levels[0]}, p.mirror}, eo));
                 break;
             }
             case Container::Env: {
                 EncodeOptions e = eo;
                 e.polynomial = babylon_polynomial(sh);
-                put("environment", "environment.env", encode_env(chain.chain, e));
+                put("environment", "environment.env", encode_env(chain, e));
                 break;
             }
             case Container::Source: break;
@@ -157,9 +141,9 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
         if (p.diffuse == DiffuseForm::Cube) {
             const Cubemap* irr = r.irradiance ? &*r.irradiance : r.extra_irradiance ? &*r.extra_irradiance : nullptr;
             if (!irr) throw std::logic_error("the bake made no irradiance for preset " + p.name);
-            const OwnedChain d = make_chain({irr}, p.mirror);
+            const CubeChain d{{irr}, p.mirror};
             put("diffuse", "diffuse." + std::string(p.container == Container::Ktx2 ? "ktx2" : "dds"),
-                encoder_for(p.container)(d.chain, eo));
+                encoder_for(p.container)(d, eo));
             m["diffuse_face_size"] = irr->size;
         }
     }
@@ -171,7 +155,7 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
         if (!lut) throw std::logic_error("the bake made no " + std::string(lut_model_name(p.lut_model)) + " LUT");
         std::vector<float> v(lut->pixels.size());
         for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut->pixels[k], 0.0f, 1.0f);
-        io::write_png16((dir / "brdf_lut.png").string(), lut->width, lut->height, 3, v);
+        io::write_png16_fast((dir / "brdf_lut.png").string(), lut->width, lut->height, 3, v);
         files["lut"] = "brdf_lut.png";
         written.push_back({{"file", "brdf_lut.png"}, {"encoding", "unorm16"}});
         m["lut"] = {{"file", "brdf_lut.png"},

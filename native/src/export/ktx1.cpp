@@ -63,7 +63,8 @@ Encoded encode_ktx1(const CubeChain& chain, const EncodeOptions& o) {
         append32(b, uint32_t(face_bytes));  // imageSize: one face of a non-array cube
         const size_t at = b.size();
         b.resize(at + 6 * face_bytes);
-        pack_texels(c->pixels.data(), 6 * texels, o.format, b.data() + at, e.stats);
+        for (int face = 0; face < 6; ++face)
+            pack_face(*c, chain.mirror, face, o.format, b.data() + at + face * face_bytes, e.stats);
     }
     return e;
 }

@@ -28,13 +28,12 @@ uint32_t sample_word0(uint32_t bit_offset, uint32_t bit_length, uint32_t channel
     return bit_offset | ((bit_length - 1) << 16) | (channel << 24);
 }
 
-// The level's texels: faces +X .. -Z, rows top to bottom.
-std::vector<uint8_t> level_bytes(const Cubemap& cube, PixelFormat f, PackStats& stats) {
-    const size_t texels = size_t(6) * cube.size * cube.size;
-    std::vector<uint8_t> out(texels * texel_bytes(f));
-    pack_texels(cube.pixels.data(), texels, f, out.data(), stats);
-    return out;
+// The level's texels: faces +X .. -Z, rows top to bottom, at `out`.
+void pack_level(const Cubemap& cube, Mirror m, PixelFormat f, uint8_t* out, PackStats& stats) {
+    const size_t face_bytes = size_t(cube.size) * cube.size * texel_bytes(f);
+    for (int face = 0; face < 6; ++face) pack_face(cube, m, face, f, out + face * face_bytes, stats);
 }
+size_t level_size(const Cubemap& cube, PixelFormat f) { return size_t(6) * cube.size * cube.size * texel_bytes(f); }
 
 }  // namespace
 
@@ -106,19 +105,23 @@ Encoded encode_ktx2(const CubeChain& chain, const EncodeOptions& o) {
     const uint32_t n0 = uint32_t(chain.levels[0]->size);
     Encoded e;
 
-    // Level data, uncompressed and (when asked) Zstandard-compressed.
-    std::vector<std::vector<uint8_t>> raw(levels), stored(levels);
+    // Supercompressed levels are made first (their lengths set the layout);
+    // uncompressed ones are packed straight into the file below.
+    std::vector<size_t> raw_size(levels), stored_size(levels);
+    std::vector<std::vector<uint8_t>> stored(levels);
+    std::vector<uint8_t> raw;
     for (uint32_t m = 0; m < levels; ++m) {
-        raw[m] = level_bytes(*chain.levels[m], o.format, e.stats);
+        raw_size[m] = stored_size[m] = level_size(*chain.levels[m], o.format);
         if (o.zstd) {
-            stored[m].resize(ZSTD_compressBound(raw[m].size()));
-            const size_t got = ZSTD_compress(stored[m].data(), stored[m].size(), raw[m].data(), raw[m].size(),
-                                             o.zstd_level);
+            raw.resize(raw_size[m]);
+            pack_level(*chain.levels[m], chain.mirror, o.format, raw.data(), e.stats);
+            stored[m].resize(ZSTD_compressBound(raw.size()));
+            const size_t got = ZSTD_compress(stored[m].data(), stored[m].size(), raw.data(), raw.size(), o.zstd_level);
             if (ZSTD_isError(got)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(got));
             stored[m].resize(got);
+            stored_size[m] = got;
         }
     }
-    const auto& data = o.zstd ? stored : raw;
 
     // Key/value data, sorted by key (KTX2 requires it), each entry padded to 4.
     std::vector<std::pair<std::string, std::string>> kv = o.key_values;
@@ -146,7 +149,7 @@ Encoded encode_ktx2(const CubeChain& chain, const EncodeOptions& o) {
     for (int m = int(levels) - 1; m >= 0; --m) {
         at = align_up(at, align);
         offset[m] = at;
-        at += data[m].size();
+        at += stored_size[m];
     }
     std::vector<uint8_t>& b = e.bytes;
     b.assign(at, 0);
@@ -162,12 +165,15 @@ Encoded encode_ktx2(const CubeChain& chain, const EncodeOptions& o) {
     put64(b, 72, 0);
     for (uint32_t m = 0; m < levels; ++m) {  // the index: level 0 first
         put64(b, index_at + 24 * m, offset[m]);
-        put64(b, index_at + 24 * m + 8, data[m].size());
-        put64(b, index_at + 24 * m + 16, raw[m].size());
+        put64(b, index_at + 24 * m + 8, stored_size[m]);
+        put64(b, index_at + 24 * m + 16, raw_size[m]);
     }
     for (size_t k = 0; k < dfd.size(); ++k) put32(b, dfd_at + 4 * k, dfd[k]);
     std::copy(kvd.begin(), kvd.end(), b.begin() + kvd_at);
-    for (uint32_t m = 0; m < levels; ++m) std::copy(data[m].begin(), data[m].end(), b.begin() + offset[m]);
+    for (uint32_t m = 0; m < levels; ++m) {
+        if (o.zstd) std::copy(stored[m].begin(), stored[m].end(), b.begin() + offset[m]);
+        else pack_level(*chain.levels[m], chain.mirror, o.format, b.data() + offset[m], e.stats);
+    }
     return e;
 }
 

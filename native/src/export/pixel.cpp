@@ -75,7 +75,17 @@ float format_max(PixelFormat f) {
     }
 }
 
-uint16_t float_to_half(float v) { return Imath::half(v).bits(); }
+uint16_t float_to_half(float v) {
+#if defined(__FLT16_MAX__) && (defined(__F16C__) || defined(__aarch64__))
+    // The hardware conversion (IEEE round to nearest even, as Imath's).
+    const _Float16 h = static_cast<_Float16>(v);
+    uint16_t bits;
+    std::memcpy(&bits, &h, 2);
+    return bits;
+#else
+    return Imath::half(v).bits();
+#endif
+}
 
 float half_to_float(uint16_t h) {
     Imath::half x;
@@ -117,12 +127,12 @@ void unpack_r11g11b10f(uint32_t v, float out[3]) {
     out[2] = unpack_ufloat(v >> 22, 5);
 }
 
-void pack_texels(const float* rgb, size_t count, PixelFormat f, uint8_t* out, PackStats& stats) {
+void pack_texels(const float* rgb, size_t count, PixelFormat f, uint8_t* out, PackStats& stats, std::ptrdiff_t step) {
     const size_t tb = texel_bytes(f);
     const float maxv = format_max(f);
     const float maxb = f == PixelFormat::R11g11b10f ? 64512.0f : maxv;
     const uint16_t one_half = float_to_half(1.0f);
-    for (size_t t = 0; t < count; ++t, rgb += 3, out += tb) {
+    for (size_t t = 0; t < count; ++t, rgb += step, out += tb) {
         float v[3];
         bool clamped = false;
         for (int c = 0; c < 3; ++c) {

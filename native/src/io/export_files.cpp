@@ -24,10 +24,27 @@ void write_all(FILE* f, const void* data, size_t bytes, const std::string& path)
 }
 }  // namespace
 
-std::vector<uint8_t> encode_png8(int width, int height, int channels, const uint8_t* values) {
-    if (width < 1 || height < 1 || channels < 1 || channels > 4)
-        throw std::invalid_argument("encode_png8: bad image size or channel count");
-    return detail::encode_png8_memory(width, height, channels, values);
+std::vector<uint8_t> encode_png8(int width, int height, int channels, const uint8_t* values, int level) {
+    if (width < 1 || height < 1 || channels < 1 || channels > 4 || level < 0 || level > 9)
+        throw std::invalid_argument("encode_png8: bad image size, channel count or zlib level");
+    return detail::encode_png8_memory(width, height, channels, values, level);
+}
+
+void write_png16_fast(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
+    if (values.size() != size_t(width) * height * channels)
+        throw std::invalid_argument("write_png16_fast: " + std::to_string(values.size()) + " values for a " +
+                                    std::to_string(width) + " x " + std::to_string(height) + " x " +
+                                    std::to_string(channels) + " image");
+    try {
+        detail::write_png_file_rows(
+            path, width, height, channels, 16,
+            [&](int y0, int rows, float* out) {
+                std::copy_n(values.data() + size_t(y0) * width * channels, size_t(rows) * width * channels, out);
+            },
+            1);
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot write '" + path + "': " + e.what());
+    }
 }
 
 void float_to_rgbe(const float rgb[3], uint8_t out[4]) {

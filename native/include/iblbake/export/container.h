@@ -16,15 +16,20 @@
 
 namespace iblbake {
 
-// Level 0 first; level m has face max(1, N0 >> m); faces in SPEC order.
+// Level 0 first; level m has face max(1, N0 >> m); faces in SPEC order. The
+// mirror is applied as the texels are packed (no copy of the cubes).
 struct CubeChain {
     std::vector<const Cubemap*> levels;
+    Mirror mirror = Mirror::None;
 };
+// Face `face` of a level as the container stores it (the chain's mirror
+// applied; rows top to bottom), packed in format f: size^2 texels at `out`.
+void pack_face(const Cubemap& cube, Mirror m, int face, PixelFormat f, uint8_t* out, PackStats& stats);
 
 struct EncodeOptions {
     PixelFormat format = PixelFormat::Rgba16f;
     bool zstd = false;    // KTX2: Zstandard supercompression of every level
-    int zstd_level = 3;
+    int zstd_level = 2;
     std::string writer;   // KTX2 KTXwriter
     // Key/value metadata (KTX1: Filament's `sh`), written in this order.
     std::vector<std::pair<std::string, std::string>> key_values;

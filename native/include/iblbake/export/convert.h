@@ -19,6 +19,14 @@ struct TexelRef {
 TexelRef mirror_source(Mirror m, int face, int i, int j, int n);
 // The whole cube remapped that way.
 Cubemap mirror_cube(const Cubemap& cube, Mirror m);
+// Row j of face f of the mirrored cube, read from the SPEC cube without a
+// copy: its first texel and the step between texels (3 floats, or -3 where
+// the mirror reverses rows).
+struct RowSource {
+    const float* first;
+    std::ptrdiff_t step;
+};
+RowSource mirrored_row(const Cubemap& cube, Mirror m, int face, int j);
 
 // SH9 (SPEC section 5 order) of the mirrored radiance: x negates the
 // coefficients odd in x (3, 4, 7), z those odd in z (2, 5, 7).

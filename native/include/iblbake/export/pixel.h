@@ -19,8 +19,10 @@ struct PackStats {
     uint64_t clamped = 0;  // texels with a channel above the format's range
     float largest = 0.0f;  // the largest channel value seen
 };
-// `count` RGB texels -> count * texel_bytes(f) bytes at `out`.
-void pack_texels(const float* rgb, size_t count, PixelFormat f, uint8_t* out, PackStats& stats);
+// `count` RGB texels -> count * texel_bytes(f) bytes at `out`; the texels are
+// read `step` floats apart (3: contiguous, -3: backwards).
+void pack_texels(const float* rgb, size_t count, PixelFormat f, uint8_t* out, PackStats& stats,
+                 std::ptrdiff_t step = 3);
 
 // The largest finite value of each format.
 float format_max(PixelFormat f);
