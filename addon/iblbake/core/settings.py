@@ -37,6 +37,8 @@ class BakeSettings:
     render_samples: int = RENDER_SAMPLES
     lut_cache_dir: str = ""  # "" : the native default (~/.cache/iblbake)
     threads: int = 0
+    # Engine presets (iblbake_core.presets()), each written into out_dir/<name>/.
+    presets: List[str] = field(default_factory=list)
 
     def resolved_mip_count(self) -> int:
         return self.mip_count if self.mip_count > 0 else max(1, self.face_size).bit_length()
@@ -53,6 +55,8 @@ class BakeSettings:
             raise ValueError("render width must be in 16..16384")
         if not (1 <= self.render_samples <= 4096):
             raise ValueError("render samples must be in 1..4096")
+        if not isinstance(self.presets, (list, tuple)) or not all(isinstance(p, str) and p for p in self.presets):
+            raise ValueError("presets must be a list of engine preset names")
 
     def hash_fields(self) -> dict:
         """The settings that change the files (not where they go, nor how fast)."""
