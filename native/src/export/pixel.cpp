@@ -3,6 +3,7 @@
 #include <Imath/half.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -94,21 +95,26 @@ float half_to_float(uint16_t h) {
 }
 
 uint32_t pack_e5b9g9r9(float r, float g, float b) {
+    // EXT_texture_shared_exponent with N = 9, B = 15, in exact double
+    // arithmetic: floor(log2(maxc)) from the float's exponent field, the
+    // scales 2^-(exp - B - N) from a table.
     constexpr int N = 9, B = 15;
-    const double maxv = 65408.0;
-    const double rc = std::min(double(clean(r)), maxv), gc = std::min(double(clean(g)), maxv),
-                 bc = std::min(double(clean(b)), maxv);
-    const double maxc = std::max({rc, gc, bc});
-    int floor_log2 = -B - 1;
-    if (maxc > 0.0) {
-        int e = 0;
-        std::frexp(maxc, &e);  // maxc in [2^(e-1), 2^e)
-        floor_log2 = std::max(-B - 1, e - 1);
-    }
+    static const auto inv_scale = [] {
+        std::array<double, 34> t{};
+        for (int e = 0; e < 34; ++e) t[e] = std::ldexp(1.0, B + N - e);
+        return t;
+    }();
+    const float maxv = 65408.0f;
+    const float rc = std::min(clean(r), maxv), gc = std::min(clean(g), maxv), bc = std::min(clean(b), maxv);
+    const float maxc = std::max({rc, gc, bc});
+    uint32_t bits;
+    std::memcpy(&bits, &maxc, 4);
+    // Zero and denormals (below 2^-126) sit under 2^-16: the smallest exponent.
+    const int floor_log2 = std::max(-B - 1, int((bits >> 23) & 0xff) - 127);
     int exp_shared = floor_log2 + 1 + B;
-    const double maxm = std::floor(std::ldexp(maxc, -(exp_shared - B - N)) + 0.5);
-    if (maxm == double(1 << N)) ++exp_shared;
-    auto mant = [&](double c) { return uint32_t(std::floor(std::ldexp(c, -(exp_shared - B - N)) + 0.5)); };
+    if (uint32_t(double(maxc) * inv_scale[exp_shared] + 0.5) == (1u << N)) ++exp_shared;
+    const double s = inv_scale[exp_shared];
+    auto mant = [&](float c) { return uint32_t(double(c) * s + 0.5); };
     return mant(rc) | (mant(gc) << 9) | (mant(bc) << 18) | (uint32_t(exp_shared) << 27);
 }
 

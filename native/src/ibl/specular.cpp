@@ -273,16 +273,16 @@ BinSoA soa(std::vector<float> (&acc)[10]) {
 // distance is computed once, and one division per bin serves every lobe:
 // K_k = c / t_k^2 = (c / prod_j t_j^2) * prod_{j != k} t_j^2. The caller keeps
 // prod_j (2 a2_j)^2 (its smallest value) far above float's least normal.
-// The kernels of up to four lobes (a2_0..3) at one half squared distance x,
+// The kernels of up to four lobes (a2s_j = a2_j / s) at one half squared distance x,
 // each up to the constant factor s^2 (which cancels in the ratio of sums):
 // with u_k = t_k / s, one division for all, K_k s^2 = (c / prod_j u_j^2) *
 // prod_{j != k} u_j^2. s = 2 min_k a2_k, the least t, keeps every u >= 1.
 template <int K>
-inline void group_kernels(float x, const float (&a2)[4], float inv_s, float (&k)[4]) {
-    const float c = 1.0f - x, two_minus_x = 1.0f + c;
+inline void group_kernels(float x, const float (&a2s)[4], float inv_s, float (&k)[4]) {
+    const float c = 1.0f - x, two_minus_x = 1.0f + c, xs = x * inv_s;
     float q[4];
     for (int j = 0; j < K; ++j) {
-        const float u = (x + a2[j] * two_minus_x) * inv_s;
+        const float u = xs + a2s[j] * two_minus_x;  // (x + a2_j (2 - x)) / s
         q[j] = u * u;
     }
     if constexpr (K == 1) {
@@ -459,6 +459,7 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
         a2_min = std::min(a2_min, a2[k]);
     }
     const float inv_s = 1.0f / (2.0f * a2_min);
+    for (int k = 0; k < K; ++k) a2[k] *= inv_s;  // the kernels take a2 / s
     const int T = std::max(1, std::min(q.tile, n));
     const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
     std::vector<double> used(tiles, 0.0);
