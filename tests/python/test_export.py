@@ -223,7 +223,7 @@ def test_babylon_env_decodes_with_pillow(bake_dir):
             e = info["specular"]["mipmaps"][6 * m + f]
             png = Image.open(io.BytesIO(data[base + e["position"]:base + e["position"] + e["length"]]))
             assert png.mode == "RGBA"
-            q = np.asarray(png, np.float64) / 255.0
+            q = np.asarray(png, np.float64)[::-1] / 255.0  # stored bottom row first, as Babylon does
             faces.append(q[..., :3] ** 2.2 / q[..., 3:])  # Babylon's fromRGBD
         return np.stack(faces)
 
@@ -240,14 +240,16 @@ def test_babylon_env_decodes_with_pillow(bake_dir):
         assert np.allclose(got[~inside].max(axis=-1), 255.0, rtol=0.01)
     clamped = res["manifest"]["presets"]["babylon"]["written"][0]["clamped_texels"]
     assert clamped > 0
-    # The polynomial evaluates to Irr (ENGINES.md section 1) of the z-mirrored radiance.
+    # The polynomial is the SH9 irradiance of the z-mirrored radiance (ENGINES.md
+    # section 1) with bands 1 and 2 carrying A_l / pi once more (Babylon
+    # evaluates them 3/2 and 4 times stronger).
     p = {k: np.array(v) for k, v in info["irradiance"].items()}
     n = np.array([0.0, 0.0, 1.0])  # engine +Z sees what SPEC has at -Z
     irr = p["z"] * n[2] + p["zz"] * n[2] ** 2
     sh = np.array(res["sh9"])
     y = np.array([0.282095, 0, -0.488603, 0, 0, 0, 0.315392 * 2, 0, 0])  # SPEC basis at (0, 0, -1)
     band = np.array([1, 2 / 3, 2 / 3, 2 / 3, .25, .25, .25, .25, .25])
-    np.testing.assert_allclose(irr, (sh * band * y).sum(axis=1), rtol=1e-5)
+    np.testing.assert_allclose(irr, (sh * band * band * y).sum(axis=1), rtol=1e-5)
 
 
 def test_source_preset_keeps_the_lat_long(bake_dir):

@@ -99,12 +99,15 @@ Encoded encode_env(const CubeChain& chain, const EncodeOptions& o) {
         for (int face = 0; face < 6; ++face) {
             for (int j = 0; j < c->size; ++j) {
                 const RowSource row = mirrored_row(*c, chain.mirror, face, j);
+                // Babylon stores each face bottom row first (its own writer and
+                // loader do; the engine tests measure it): row j is PNG row n - 1 - j.
+                uint8_t* out = rgba.data() + 4 * size_t(c->size - 1 - j) * c->size;
                 for (int i = 0; i < c->size; ++i) {
                     const float* v = row.first + i * row.step;
                     const float m = std::max({v[0], v[1], v[2]});
                     e.stats.largest = std::max(e.stats.largest, m);
                     e.stats.clamped += m > 255.0f;
-                    rgbd_encode(v, rgba.data() + 4 * (size_t(j) * c->size + i));
+                    rgbd_encode(v, out + 4 * i);
                 }
             }
             images.push_back(io::encode_png8(c->size, c->size, 4, rgba.data()));
