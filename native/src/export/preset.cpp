@@ -85,7 +85,8 @@ std::vector<Preset> make_table() {
         p.skybox = true;
         p.lod_formula = "lod = T r (2 - r), T = levels - 1 (iblRoughnessOneLevel)";
         p.diffuse_note = "ibl.ktx key `sh`: 27 floats, Filament's pre-scaled irradiance SH (sh9 x k)";
-        p.notes = "skybox.ktx holds level 0 alone (createSkyboxFromKtx1)";
+        p.notes = "skybox.ktx holds level 0 alone (createSkyFromKtx1). Filament's web build takes RGBA16F but "
+                  "logs that it expects R11F_G11F_B10F (filament:r11g11b10f, about 3 % precision)";
         t.push_back(p);
     }
     {
@@ -101,7 +102,9 @@ std::vector<Preset> make_table() {
         p.diffuse = DiffuseForm::Polynomial;
         p.sh = ShForm::BabylonPolynomial;
         p.sh_mirrored = true;
-        p.lod_formula = "lod = 0.8 log2(N0 alpha), alpha = r^2 (getLodFromAlphaG x lodGenerationScale 0.8)";
+        p.lod_formula = "lod = 0.8 log2(N0 alphaG), alphaG = r^2 + 0.0005 for a material of roughness r "
+                        "(getLodFromAlphaG x lodGenerationScale 0.8); level m holds the lobe alpha = r_m^2 = "
+                        "2^(m/0.8) / N0, as Babylon's own prefiltering";
         p.diffuse_note = "the spherical polynomial in the header (irradiance), from the z-mirrored sh9";
         p.notes = "RGBD PNG faces for every level down to 1 x 1 (Babylon requires the full chain); Babylon looks "
                   "cubes up left-handed: stored z-mirrored";
