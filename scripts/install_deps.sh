@@ -29,8 +29,9 @@ PYTHON=(python3-dev python3-numpy pybind11-dev)
 TESTS=(libgtest-dev libgmock-dev libbenchmark-dev python3-pytest python3-matplotlib time)
 BLENDER=(blender blender-data)
 GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
+EXPORT=(libzstd-dev python3-zstandard)
 
-PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${GUI[@]}")
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${GUI[@]}" "${EXPORT[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

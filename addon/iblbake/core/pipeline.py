@@ -38,9 +38,10 @@ class BakeReport:
                 self.out_dir, self.content_hash[:12])
         spec = self.manifest.get("specular") or []
         levels = ("specular levels %d-%d" % (spec[0]["level"], spec[-1]["level"])) if spec else "no specular"
-        return "Baked in %.2f s into %s (%s%s%s)" % (
+        presets = sorted(self.manifest.get("presets") or {})
+        return "Baked in %.2f s into %s (%s%s%s%s)" % (
             self.seconds, self.out_dir, "irradiance, " if self.manifest.get("irradiance") else "", levels,
-            ", LUT" if self.manifest.get("brdf_lut") else "")
+            ", LUT" if self.manifest.get("brdf_lut") else "", ", for " + ", ".join(presets) if presets else "")
 
 
 def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
@@ -51,9 +52,7 @@ def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
                 formats=list(settings.formats), png_encoding=settings.png_encoding,
                 exposure=float(settings.exposure), float32=settings.float32, eps=float(settings.eps),
                 threads=settings.threads, irradiance=settings.irradiance, specular=settings.specular,
-                lut=settings.lut)
-    if settings.presets:  # engine-ready exports beside the crosses (iblbake_core.presets())
-        opts["presets"] = list(settings.presets)
+                lut=settings.lut, presets=list(settings.presets))
     if settings.preview:
         opts["preview"] = True
     reasons = {}
@@ -113,6 +112,8 @@ def existing_hash(out_dir: str) -> Optional[str]:
     for key in ("irradiance", "brdf_lut"):
         if m.get(key):
             files.append(m[key]["file"])
+    for preset in (m.get("presets") or {}).values():  # each engine preset's folder
+        files.extend(os.path.join(preset["dir"], f) for f in preset["files"].values())
     if not all(os.path.isfile(os.path.join(out_dir, f)) for f in files):
         return None
     return (m.get("blender") or {}).get("content_hash")
@@ -135,7 +136,7 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         raise BakeError("no pixels to bake")
     out_dir = os.path.abspath(os.path.expanduser(settings.out_dir))
     opts = native_options(settings, needs)
-    if not (opts["irradiance"] or opts["specular"] or opts["lut"]):
+    if not (opts["irradiance"] or opts["specular"] or opts["lut"] or opts["presets"]):
         why = "; ".join(sorted(set((opts.get("skip_reasons") or {}).values()))) or "every output is switched off"
         raise BakeError("nothing to bake (%s): choose Bake For: Every Roughness to bake anyway" % why)
     parent = os.path.dirname(out_dir)
