@@ -1,0 +1,39 @@
+// The bakes the engine_bakes fixture made (prepare.py): where they are and
+// how to read them.
+import fs from 'node:fs';
+import path from 'node:path';
+import { readCross } from './exr.mjs';
+
+function bake(data, name, source) {
+  const dir = path.join(data, name);
+  const manifestFile = path.join(dir, 'manifest.json');
+  if (!fs.existsSync(manifestFile)) throw new Error(`${manifestFile} is missing (the engine_bakes fixture makes it)`);
+  return {
+    dir,
+    manifest: JSON.parse(fs.readFileSync(manifestFile, 'utf8')),
+    sources: JSON.parse(fs.readFileSync(path.join(data, 'src', 'sources.json'), 'utf8')),
+    source: path.join(data, 'src', source),
+    crossLevel: (m) => readCross(path.join(dir, `specular_${m}.exr`)),
+  };
+}
+
+export function loadBakes(data) {
+  return {
+    marker: bake(data, 'marker', 'marker.exr'),
+    dipole: bake(data, 'dipole', 'dipole.exr'),
+    // SPEC chains with M levels (linear r_m = m / (M - 1)): the levels of the
+    // deliberately wrong "linear curve" exports.
+    markerLinear: (M) => {
+      const b = bake(data, `marker_lin${M}`, 'marker.exr');
+      return Array.from({ length: M }, (_, m) => b.crossLevel(m));
+    },
+  };
+}
+
+// The load snippet the export documents for an engine (README "Load it in
+// your engine"), extracted by prepare.py into web/snippets/<engine>.mjs;
+// null when there is none.
+export function snippetFor(engine) {
+  const f = path.join(path.dirname(new URL(import.meta.url).pathname), '..', 'web', 'snippets', `${engine}.mjs`);
+  return fs.existsSync(f) ? `/w/snippets/${engine}.mjs` : null;
+}
