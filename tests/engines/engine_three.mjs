@@ -10,12 +10,15 @@ import { readKtx2File, packKtx2 } from './lib/ktx2pack.mjs';
 import { readCross } from './lib/exr.mjs';
 import { reflect, mix, pixelNormal, rgbAt, writeSheet, relDiff } from './lib/sphere.mjs';
 import { orientationCheck, valueCheck } from './lib/checks.mjs';
-import { prefiltered, markerSource, dipoleIrradiance } from './lib/reference.mjs';
+import { prefiltered, markerSource, smoothIrradiance } from './lib/reference.mjs';
 import { loadBakes, snippetFor } from './lib/data.mjs';
 
 const S = 129;                       // odd: the centre pixel sees N = V exactly
 const ENGINE_MIRROR = 'x';           // ENGINES.md: three samples image cubes at (-x, y, z)
 const V = [0, 0, 1];
+// Float render target, half texels read exactly: the model matches to ~1e-6;
+// the tolerances leave room for other GPUs' filtering precision only.
+const TOL = { centre: 1e-3, p99: 2e-3 };
 
 // three's DFG LUT (16 x 16 RG16F, bilinear, clamped) as the shader samples it.
 const DFG = await (async () => {
@@ -46,7 +49,7 @@ function threeMetal(levels, r, N, geomR) {
 
 await run('three', async (s) => {
   const bakes = loadBakes(s.p.data);
-  const marker = bakes.marker, dipole = bakes.dipole;
+  const marker = bakes.marker, smooth = bakes.smooth;
   const pre = marker.manifest.presets?.three;
   if (!pre) throw new Error('marker bake has no presets.three in its manifest');
 
@@ -107,20 +110,20 @@ await run('three', async (s) => {
     const px = await render({ roughness: roughness[m] });
     ours.push(px);
     const model = (x, y) => { const p = probeAt(x, y); return threeMetal(specLevels, roughness[m], p.N, p.g); };
-    const r = valueCheck(px, S, model, { centreTol: 4e-3, p99Tol: 1.5e-2, label: `r ${fmt(roughness[m], 3)}: ` });
+    const r = valueCheck(px, S, model, { centreTol: TOL.centre, p99Tol: TOL.p99, label: `r ${fmt(roughness[m], 3)}: ` });
     s.expect(`exact values, level ${m} (r = ${fmt(roughness[m], 3)})`, r);
     centreRows.push({ level: m, roughness: roughness[m], centre: r.metrics.centre, p99: r.metrics.p99 });
   }
   s.metric('exact_values', centreRows);
 
-  // 3. Diffuse under the dipole: level T (= Irr) through the IBL path, and sh9 through a LightProbe.
-  const dPre = dipole.manifest.presets.three;
-  const dFile = path.join(dipole.dir, dPre.dir, dPre.files.specular);
+  // 3. Diffuse under the smooth source: level T (= Irr) through the IBL path, and sh9 through a LightProbe.
+  const dPre = smooth.manifest.presets.three;
+  const dFile = path.join(smooth.dir, dPre.dir, dPre.files.specular);
   const dSpec = readKtx2File(dFile).levels.map((l) => mirrorLevel(l, ENGINE_MIRROR));
   await setKtx2(dFile);
-  const exactIrr = (x, y, N) => dipoleIrradiance(dipole.sources, N);
+  const exactIrr = (x, y, N) => smoothIrradiance(smooth.sources, N);
   const diffIbl = await render({ roughness: 1, metalness: 0, specularIntensity: 0 });
-  s.expect('diffuse: matte sphere under the dipole = Irr(N) (level T)', valueCheck(diffIbl, S, exactIrr, { centreTol: 4e-3, p99Tol: 8e-3, minNV: 0.05 }));
+  s.expect('diffuse: matte sphere under the smooth source = Irr(N) (level T)', valueCheck(diffIbl, S, exactIrr, { centreTol: 4e-3, p99Tol: 8e-3, minNV: 0.05 }));
   s.metric('diffuse_level_T_vs_dT', valueCheck(diffIbl, S, (x, y, N) => sampleLevel(dSpec[dSpec.length - 1], N), { centreTol: 1, p99Tol: 1 }).metrics);
   await page.evaluate(() => iblTest.setEnv({ kind: 'none' }));
   const sh9 = [0, 1, 2].map((ch) => Array.from({ length: 9 }, (_, i) => dPre.sh.coefficients[3 * i + ch]));
@@ -171,7 +174,7 @@ await run('three', async (s) => {
   for (let m = 1; m < T; m++) {
     const px = await render({ roughness: roughness[m] });
     const model = (x, y) => { const p = probeAt(x, y); return threeMetal(specLevels, roughness[m], p.N, p.g); };
-    const r = valueCheck(px, S, model, { centreTol: 4e-3, p99Tol: 1.5e-2 });
+    const r = valueCheck(px, S, model, { centreTol: TOL.centre, p99Tol: TOL.p99 });
     if (!r.pass) linFails++;
     linMsgs.push(`level ${m}: centre ${fmt(r.metrics.centre)}`);
   }

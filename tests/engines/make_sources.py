@@ -3,8 +3,10 @@
 marker.exr  six coloured lobes around the engine axes (SPEC 2, Y up):
             +X red, -X cyan, +Y green, -Y magenta, +Z blue, -Z yellow,
             each exp(k (d.a - 1)) with k = 12 on a dim grey floor.
-dipole.exr  L(w) = c + D w per channel (constant plus dipole): its SH9 is
-            exact (bands 0 and 1 only), and Irr(n) = c + (2/3) D n exactly.
+marker_babylon.exr  the marker turned for Babylon's lat-long convention.
+smooth.exr  L(w) = c + D.w + w^T Q w per channel (constant, dipole and a
+            traceless quadrupole: SH bands 0, 1 and 2 only, so SH9 is exact),
+            and Irr(n) = c + (2/3) D.n + (1/4) n^T Q n exactly.
 
 Usage: make_sources.py OUTDIR [--width 512]
 """
@@ -29,9 +31,13 @@ LOBES = [
 LOBE_SHARPNESS = 12.0
 FLOOR = 0.02
 
-# Dipole source: per channel constant c and vector D (engine space), |D| < c.
-DIPOLE_C = (0.60, 0.50, 0.40)
-DIPOLE_D = ((0.35, 0.10, -0.15), (-0.05, 0.30, 0.20), (0.10, -0.12, 0.25))
+# Smooth source: per channel constant c, vector D and traceless symmetric Q
+# (engine space), small enough that L > 0 everywhere.
+SMOOTH_C = (0.60, 0.50, 0.40)
+SMOOTH_D = ((0.35, 0.10, -0.15), (-0.05, 0.30, 0.20), (0.10, -0.12, 0.25))
+SMOOTH_Q = (((0.10, 0.05, 0.00), (0.05, -0.04, 0.03), (0.00, 0.03, -0.06)),
+            ((-0.05, 0.00, 0.04), (0.00, 0.08, -0.02), (0.04, -0.02, -0.03)),
+            ((0.02, -0.03, 0.00), (-0.03, -0.05, 0.02), (0.00, 0.02, 0.03)))
 
 
 def engine_dirs(width, height):
@@ -45,8 +51,10 @@ def engine_dirs(width, height):
     return np.stack([bx, bz, -by], axis=-1)  # SPEC 2: engine (x, y, z) = (bx, bz, -by)
 
 
-def marker(width, height):
+def marker(width, height, turn=None):
     d = engine_dirs(width, height)
+    if turn is not None:
+        d = turn(d)
     img = np.full((height, width, 3), FLOOR, dtype=np.float64)
     for _, axis, colour in LOBES:
         w = np.exp(LOBE_SHARPNESS * (d @ np.asarray(axis, dtype=np.float64) - 1.0))
@@ -54,42 +62,14 @@ def marker(width, height):
     return img.astype(np.float32)
 
 
-def dipole(width, height):
+def smooth(width, height):
     d = engine_dirs(width, height)
     img = np.empty((height, width, 3), dtype=np.float64)
     for ch in range(3):
-        img[..., ch] = DIPOLE_C[ch] + d @ np.asarray(DIPOLE_D[ch])
+        q = np.asarray(SMOOTH_Q[ch])
+        img[..., ch] = SMOOTH_C[ch] + d @ np.asarray(SMOOTH_D[ch]) + np.einsum("...i,ij,...j->...", d, q, d)
+    assert img.min() > 0
     return img.astype(np.float32)
-
-
-def write_hdr(path, img):
-    """Radiance RGBE (.hdr), flat (not run-length encoded) scanlines, top row first."""
-    rgb = np.maximum(img.astype(np.float64), 0.0)
-    m = rgb.max(axis=-1)
-    e = np.zeros(m.shape, dtype=np.int64)
-    ok = m > 1e-32
-    mant, ex = np.frexp(m[ok])          # m = mant * 2^ex, mant in [0.5, 1)
-    e[ok] = ex
-    scale = np.zeros(m.shape)
-    scale[ok] = 256.0 / np.ldexp(1.0, ex)
-    out = np.zeros(img.shape[:2] + (4,), dtype=np.uint8)
-    out[..., :3] = np.clip(np.floor(rgb * scale[..., None]), 0, 255).astype(np.uint8)
-    out[..., 3] = np.where(ok, e + 128, 0).astype(np.uint8)
-    with open(path, "wb") as f:
-        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n")
-        f.write(f"-Y {img.shape[0]} +X {img.shape[1]}\n".encode())
-        f.write(out.tobytes())
-
-
-def read_hdr_values(img):
-    """The float values an RGBE file of img decodes to (centre-less decode: m * 2^(e-136))."""
-    rgb = np.maximum(img.astype(np.float64), 0.0)
-    m = rgb.max(axis=-1)
-    ok = m > 1e-32
-    ex = np.zeros(m.shape)
-    ex[ok] = np.frexp(m[ok])[1]
-    q = np.floor(rgb * np.where(ok, 256.0 / np.ldexp(1.0, ex.astype(np.int64)), 0)[..., None])
-    return (q * np.ldexp(1.0, (ex - 8).astype(np.int64))[..., None]).astype(np.float32)
 
 
 def main(argv):
@@ -100,16 +80,16 @@ def main(argv):
     os.makedirs(a.outdir, exist_ok=True)
     w, h = a.width, a.width // 2
     iblbake_core.write_exr(os.path.join(a.outdir, "marker.exr"), marker(w, h))
-    iblbake_core.write_exr(os.path.join(a.outdir, "dipole.exr"), dipole(w, h))
-    # The same marker as Radiance RGBE, for engines that prefilter only .hdr
-    # (Babylon's HDRCubeTexture); marker_q.exr holds exactly the values it decodes to,
-    # so our bake and the engine's filtering see the same texels.
-    write_hdr(os.path.join(a.outdir, "marker.hdr"), marker(w, h))
-    iblbake_core.write_exr(os.path.join(a.outdir, "marker_q.exr"), read_hdr_values(marker(w, h)))
+    iblbake_core.write_exr(os.path.join(a.outdir, "smooth.exr"), smooth(w, h))
+    # The same marker for Babylon's own prefiltering, whose lat-long
+    # convention shows at Babylon direction d the image's (d.z, d.y, d.x); its
+    # world is SPEC's with z negated, so it must read marker(s.z, s.y, -s.x).
+    iblbake_core.write_exr(os.path.join(a.outdir, "marker_babylon.exr"),
+                           marker(w, h, lambda d: np.stack([d[..., 2], d[..., 1], -d[..., 0]], axis=-1)))
     with open(os.path.join(a.outdir, "sources.json"), "w") as f:
         json.dump({"lobes": [{"name": n, "axis": ax, "colour": c} for n, ax, c in LOBES],
                    "lobe_sharpness": LOBE_SHARPNESS, "floor": FLOOR,
-                   "dipole": {"c": DIPOLE_C, "d": DIPOLE_D}, "width": w, "height": h}, f, indent=1)
+                   "smooth": {"c": SMOOTH_C, "d": SMOOTH_D, "q": SMOOTH_Q}, "width": w, "height": h}, f, indent=1)
     return 0
 
 

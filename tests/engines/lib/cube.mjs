@@ -220,3 +220,22 @@ export function crossUnusedMax(img) {
       for (let k = 0; k < 3; k++) m = Math.max(m, Math.abs(img.data[((cy * n + j) * img.width + cx * n + i) * img.channels + k]));
   return m;
 }
+
+// ENGINES 1: SPEC sh9 (radiance, [[9 r], [9 g], [9 b]]) -> the quadratic
+// without constant term that evaluates to Irr (Babylon's SphericalPolynomial).
+export function shToPolynomial(sh9) {
+  const k = SH_K;
+  const per = (f) => [0, 1, 2].map((c) => f(sh9[c]));
+  const C = (L) => k[0] * L[0] - k[6] * L[6];
+  return {
+    x: per((L) => k[3] * L[3]), y: per((L) => k[1] * L[1]), z: per((L) => k[2] * L[2]),
+    xx: per((L) => C(L) + k[8] * L[8]), yy: per((L) => C(L) - k[8] * L[8]), zz: per((L) => C(L) + 3 * k[6] * L[6]),
+    xy: per((L) => k[4] * L[4]), yz: per((L) => k[5] * L[5]), zx: per((L) => k[7] * L[7]),
+  };
+}
+export function polynomialIrradiance(p, d) {
+  const [x, y, z] = d;
+  return [0, 1, 2].map((c) => p.x[c] * x + p.y[c] * y + p.z[c] * z + p.xx[c] * x * x + p.yy[c] * y * y + p.zz[c] * z * z +
+                               p.xy[c] * x * y + p.yz[c] * y * z + p.zx[c] * z * x);
+}
+export const mirrorSh = (sh9, mirror) => sh9.map((row) => row.map((v, i) => (SH_MIRROR_NEGATE[mirror].includes(i) ? -v : v)));

@@ -13,18 +13,21 @@ function bake(data, name, source) {
     manifest: JSON.parse(fs.readFileSync(manifestFile, 'utf8')),
     sources: JSON.parse(fs.readFileSync(path.join(data, 'src', 'sources.json'), 'utf8')),
     source: path.join(data, 'src', source),
+    sourceBabylon: path.join(data, 'src', source.replace('.exr', '_babylon.exr')),
     crossLevel: (m) => readCross(path.join(dir, `specular_${m}.exr`)),
   };
 }
 
 export function loadBakes(data) {
+  const marker = bake(data, 'marker', 'marker.exr');
   return {
-    marker: bake(data, 'marker', 'marker.exr'),
-    dipole: bake(data, 'dipole', 'dipole.exr'),
+    marker,
+    smooth: bake(data, 'smooth', 'smooth.exr'),
     // SPEC chains with M levels (linear r_m = m / (M - 1)): the levels of the
     // deliberately wrong "linear curve" exports.
+    // (The root bake's own chain when it has M levels.)
     markerLinear: (M) => {
-      const b = bake(data, `marker_lin${M}`, 'marker.exr');
+      const b = marker.manifest.specular.length === M ? marker : bake(data, `marker_lin${M}`, 'marker.exr');
       return Array.from({ length: M }, (_, m) => b.crossLevel(m));
     },
   };

@@ -96,12 +96,14 @@ export function markerSource(desc) {
     return out;
   };
 }
-export function dipoleSource(desc) {
-  const { c, d } = desc.dipole;
-  return (w) => { const n = normalize(w); return [0, 1, 2].map((ch) => c[ch] + dot(d[ch], n)); };
+const quad = (q, n) => q.reduce((acc, row, i) => acc + n[i] * dot(row, n), 0);
+export function smoothSource(desc) {
+  const { c, d, q } = desc.smooth;
+  return (w) => { const n = normalize(w); return [0, 1, 2].map((ch) => c[ch] + dot(d[ch], n) + quad(q[ch], n)); };
 }
-// Exact irradiance of the dipole source: c + (2/3) D.n.
-export function dipoleIrradiance(desc, n) {
-  const { c, d } = desc.dipole;
-  return [0, 1, 2].map((ch) => c[ch] + (2 / 3) * dot(d[ch], n));
+// Exact irradiance of the smooth source: c + (2/3) D.n + (1/4) n^T Q n (Q traceless: band 2 only).
+export function smoothIrradiance(desc, n) {
+  const { c, d, q } = desc.smooth;
+  n = normalize(n);
+  return [0, 1, 2].map((ch) => c[ch] + (2 / 3) * dot(d[ch], n) + 0.25 * quad(q[ch], n));
 }

@@ -39,16 +39,31 @@ function init(s) {
   return { floatBuffer, drawingBufferFormat: gl.drawingBufferFormat };
 }
 
+let ktxIbl = null, shIbl = null, reflections = null;
+
+function useIbl(light) {
+  scene.setIndirectLight(light);
+}
+
 const api = {
   init,
+  // The preset's file through Filament's own KTX1 path (createIblFromKtx1: reflections + the `sh` key).
   async setIblKtx1(url) {
     const bytes = await fetchBytes(url);
-    if (ibl) { scene.setIndirectLight(null); engine.destroyIndirectLight(ibl); engine.destroyTexture(iblTex); }
-    ibl = engine.createIblFromKtx1(bytes);
-    ibl.setIntensity(1.0);
-    iblTex = ibl.getReflectionsTexture();
-    scene.setIndirectLight(ibl);
-    return { sh: ibl.shfloats ? Array.from(ibl.shfloats) : null };
+    if (shIbl) { engine.destroyIndirectLight(shIbl); shIbl = null; }
+    if (ktxIbl) { scene.setIndirectLight(null); engine.destroyIndirectLight(ktxIbl); engine.destroyTexture(reflections); }
+    ktxIbl = engine.createIblFromKtx1(bytes);
+    ktxIbl.setIntensity(1.0);
+    reflections = ktxIbl.getReflectionsTexture();
+    useIbl(ktxIbl);
+    return { sh: ktxIbl.shfloats ? Array.from(ktxIbl.shfloats) : null };
+  },
+  // The same reflections with other SH (27 floats, band by band, rgb), or the KTX's own (null).
+  setSh(sh) {
+    if (shIbl) { engine.destroyIndirectLight(shIbl); shIbl = null; }
+    if (!sh) { useIbl(ktxIbl); return; }
+    shIbl = F.IndirectLight.Builder().reflections(reflections).irradianceSh(3, Float32Array.from(sh)).intensity(1.0).build(engine);
+    useIbl(shIbl);
   },
   async setSphere(url) {
     if (asset) { scene.removeEntities(asset.getEntities()); loader.destroyAsset(asset); }
@@ -57,19 +72,33 @@ const api = {
     scene.addEntities(asset.getEntities());
     return { entities: asset.getEntities().length };
   },
-  async render() {
+  async render({ roughness = 0, metallic = 1, baseColor = [1, 1, 1, 1], specularAA = true } = {}) {
+    const rm = engine.getRenderableManager();
+    for (const e of asset.getRenderableEntities()) {
+      const inst = rm.getInstance(e);
+      const mi = rm.getMaterialInstanceAt(inst, 0);
+      mi.setFloatParameter('roughnessFactor', roughness);
+      mi.setFloatParameter('metallicFactor', metallic);
+      mi.setFloat4Parameter('baseColorFactor', baseColor);
+      // gltfio's materials filter roughness by the normal's screen derivatives
+      // (geometric specular anti-aliasing, variance 0.15 by default).
+      mi.setSpecularAntiAliasingVariance(specularAA ? 0.15 : 0.0);
+      inst.delete();
+    }
     let frames = 0;
-    for (let k = 0; k < 10; k++) {
+    for (let k = 0; k < 20 && frames < 2; k++) {
       if (renderer.beginFrame(swapChain)) { renderer.renderView(view); renderer.endFrame(); frames++; }
       engine.execute();
-      await new Promise((r) => setTimeout(r, 10));
-      if (frames >= 2) break;
+      await new Promise((r) => setTimeout(r, 5));
     }
     gl.finish();
     const px = new Float32Array(size * size * 4);
     gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
     gl.readPixels(0, 0, size, size, gl.RGBA, gl.FLOAT, px);
-    return { frames, glError: gl.getError(), pixels: f32ToBase64(px) };
+    const err = gl.getError();
+    if (err) throw new Error(`readPixels: GL error ${err}`);
+    if (frames < 2) throw new Error(`Filament rendered ${frames} frames`);
+    return f32ToBase64(px);
   },
 };
 
