@@ -28,8 +28,9 @@ LIBS=(libopenimageio-dev openimageio-tools libopenexr-dev libpng-dev libtbb-dev
 PYTHON=(python3-dev python3-numpy pybind11-dev)
 TESTS=(libgtest-dev libgmock-dev libbenchmark-dev python3-pytest python3-matplotlib time)
 BLENDER=(blender blender-data)
+EXPORT=(libzstd-dev python3-zstandard)
 
-PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}")
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${EXPORT[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

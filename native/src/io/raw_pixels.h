@@ -26,6 +26,7 @@ void write_exr_file_rows(const std::string& path, int width, int height, int cha
                          const std::function<void(int y0, int rows, float* out)>& fill);
 void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,
                          const std::function<void(int y0, int rows, float* out)>& fill);
+std::vector<unsigned char> encode_png8_memory(int width, int height, int channels, const unsigned char* values);
 
 // The plugin's C interface (oiio_plugin.cpp, built as libiblbake_oiio.so and
 // loaded only for files that are not EXR, so that baking EXR never loads

@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 
 #include "iblbake/bake/bake.h"
+#include "iblbake/export/preset.h"
+#include "iblbake/export/layout.h"
 
 namespace iblbake {
 
@@ -20,8 +22,14 @@ struct WriteOptions {
     // More top-level manifest keys (e.g. what a Blender world was turned
     // into); they may not replace the contract's own keys.
     nlohmann::json manifest_extra = nlohmann::json::object();
+    // Engine presets: each writes its files into OUT/<name>/ (docs/export.md).
+    std::vector<Preset> presets;
+    CubeLayout layout = CubeLayout::HCross;  // how the crosses at OUT/ are laid out
     void validate() const;  // throws std::invalid_argument
 };
+
+// `bo` with what the presets of `wo` need from the bake (bo.extra; export/plan.h).
+BakeOptions with_exports(BakeOptions bo, const WriteOptions& wo);
 
 struct SourceInfo {
     std::string path;    // empty for in-memory sources
