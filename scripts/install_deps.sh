@@ -29,8 +29,13 @@ PYTHON=(python3-dev python3-numpy pybind11-dev)
 TESTS=(libgtest-dev libgmock-dev libbenchmark-dev python3-pytest python3-matplotlib time)
 BLENDER=(blender blender-data)
 EXPORT=(libzstd-dev python3-zstandard)
+# Engine tests: Debian's chromium (headless, SwiftShader); node and npm from
+# Debian unless an npm is already on PATH (nodesource's nodejs ships its own
+# npm and conflicts with Debian's npm package).
+BROWSER=(chromium)
+command -v npm >/dev/null 2>&1 || BROWSER+=(nodejs npm)
 
-PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${EXPORT[@]}")
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${EXPORT[@]}" "${BROWSER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

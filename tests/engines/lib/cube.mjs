@@ -79,27 +79,29 @@ export function nearestTexel(level, d) {
 // the neighbour face's texel at that spot (seamless filtering), found by
 // projecting the outside texel centre onto the cube.
 export const CUBE_FILTER = { mode: 'seamless' };   // 'seamless' (GLES 3) or 'clamp' (per-face clamp to edge)
-function texelAt(level, f, i, j) {
-  const n = level.n;
+
+// Texel (i, j) of face f of an n x n grid, where i or j may lie one texel
+// outside the face: the neighbour face's texel at that spot (seamless
+// filtering), found by projecting the outside texel centre onto the cube.
+// get(f, i, j) returns a texel's channels.
+function gridTexel(n, get, f, i, j) {
   if (CUBE_FILTER.mode === 'clamp') { i = Math.min(n - 1, Math.max(0, i)); j = Math.min(n - 1, Math.max(0, j)); }
-  if (i >= 0 && i < n && j >= 0 && j < n) return level.faces[f].subarray((j * n + i) * level.c, (j * n + i + 1) * level.c);
+  if (i >= 0 && i < n && j >= 0 && j < n) return get(f, i, j);
   const outI = i < 0 || i >= n, outJ = j < 0 || j >= n;
   if (outI && outJ) {
     // No texel sits beyond a cube corner: like SwiftShader (and most GPUs),
     // use the mean of the three texels that meet there.
     const ic = Math.min(n - 1, Math.max(0, i)), jc = Math.min(n - 1, Math.max(0, j));
-    const a = texelAt(level, f, ic, jc), b = texelAt(level, f, i, jc), c = texelAt(level, f, ic, j);
-    return a.map((v, k) => (v + b[k] + c[k]) / 3);
+    const a = gridTexel(n, get, f, ic, jc), b = gridTexel(n, get, f, i, jc), c = gridTexel(n, get, f, ic, j);
+    return Array.from(a, (v, k) => (v + b[k] + c[k]) / 3);
   }
-  // The neighbour face's texel across the edge: project this outside texel centre onto the cube.
-  const t = nearestTexel(level, faceDir(f, (i + 0.5) / n, (j + 0.5) / n));
-  return level.faces[t.f].subarray(t.o, t.o + level.c);
+  const { f: g, s, t } = dirToFace(faceDir(f, (i + 0.5) / n, (j + 0.5) / n));
+  return get(g, Math.min(n - 1, Math.max(0, Math.floor(s * n))), Math.min(n - 1, Math.max(0, Math.floor(t * n))));
 }
 
-// Seamless bilinear sample of one level at direction d.
-export function sampleLevel(level, d) {
+// Seamless bilinear sample at direction d of an n x n cube grid with c channels.
+export function sampleGrid(n, c, d, get) {
   const { f, s, t } = dirToFace(d);
-  const n = level.n, c = level.c;
   const u = s * n - 0.5, v = t * n - 0.5;
   const i0 = Math.floor(u), j0 = Math.floor(v);
   const a = u - i0, b = v - j0;
@@ -107,10 +109,16 @@ export function sampleLevel(level, d) {
   const w = [[(1 - a) * (1 - b), i0, j0], [a * (1 - b), i0 + 1, j0], [(1 - a) * b, i0, j0 + 1], [a * b, i0 + 1, j0 + 1]];
   for (const [wk, i, j] of w) {
     if (wk === 0) continue;
-    const px = texelAt(level, f, i, j);
+    const px = gridTexel(n, get, f, i, j);
     for (let k = 0; k < c; k++) out[k] += wk * px[k];
   }
   return out;
+}
+
+// Seamless bilinear sample of one level at direction d.
+export function sampleLevel(level, d) {
+  const n = level.n, c = level.c;
+  return sampleGrid(n, c, d, (f, i, j) => level.faces[f].subarray((j * n + i) * c, (j * n + i + 1) * c));
 }
 
 // Trilinear: levels[] largest first, lod clamped to [0, levels.length - 1].

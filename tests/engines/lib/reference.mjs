@@ -2,7 +2,7 @@
 // by Gauss-Legendre quadrature over GGX's half-vector distribution: the
 // ground truth both our bake and an engine's own filtering are measured
 // against. Independent of the C++ code.
-import { normalize, dot } from './cube.mjs';
+import { normalize, dot, sampleGrid, texelDir } from './cube.mjs';
 
 function gaussLegendre(n) {
   const x = new Float64Array(n), w = new Float64Array(n);
@@ -106,4 +106,22 @@ export function smoothIrradiance(desc, n) {
   const { c, d, q } = desc.smooth;
   n = normalize(n);
   return [0, 1, 2].map((ch) => c[ch] + (2 / 3) * dot(d[ch], n) + 0.25 * quad(q[ch], n));
+}
+
+// What a render of a mip chain shows when every texel is exact: the chain's
+// levels [{n, r}] hold Pre(texel centre, r) exactly, sampled as the GPU does
+// (seamless bilinear, linear between levels at lod). Separates a filter's
+// error from the interpolation error of the chain's own grid.
+export function chainTruth(L, chain, d, lod, memo = new Map()) {
+  const top = chain.length - 1, l = Math.min(top, Math.max(0, lod));
+  const l0 = Math.floor(l), l1 = Math.min(top, l0 + 1), w = l - l0;
+  const at = (m) => sampleGrid(chain[m].n, 3, d, (f, i, j) => {
+    const key = `${m}/${chain[m].n}/${chain[m].r}/${f}/${i}/${j}`;
+    if (!memo.has(key)) memo.set(key, prefiltered(L, texelDir(f, i, j, chain[m].n), chain[m].r));
+    return memo.get(key);
+  });
+  const a = at(l0);
+  if (w === 0 || l1 === l0) return a;
+  const b = at(l1);
+  return a.map((v, k) => v * (1 - w) + b[k] * w);
 }

@@ -81,7 +81,7 @@ const api = {
       const rt = pmremGen.fromEquirectangular(exr);
       exr.dispose();
       setEnv(rt.texture);
-      return { levels: rt.texture.mipmaps ? rt.texture.mipmaps.length : null, size: rt.width,
+      return { levels: rt.texture.mipmaps && rt.texture.mipmaps.length ? rt.texture.mipmaps.length : (rt.texture.image && rt.texture.image.mipmaps ? rt.texture.image.mipmaps.length : null), size: rt.width,
                isPMREMTexture: !!rt.texture.isPMREMTexture, isRenderTargetTexture: !!rt.texture.isRenderTargetTexture };
     }
     if (kind === 'none') { setEnv(null); return {}; }
@@ -120,6 +120,12 @@ const api = {
     scene.remove(mesh);
     mat.dispose();
     return f32ToBase64(px);
+  },
+  // Orthographic half-size of the view (1: the sphere fills it; small: a
+  // close-up of the sphere's centre, where the normal hardly changes per pixel).
+  setZoom(h) {
+    camera.left = camera.bottom = -h; camera.right = camera.top = h;
+    camera.updateProjectionMatrix();
   },
   // One sphere of radius 1 filling the square view (ortho, camera on +Z).
   render({ roughness = 0, metalness = 1, specularIntensity = null, color = 0xffffff }) {
