@@ -16,7 +16,7 @@ import { readEnv, packEnv } from './lib/envpack.mjs';
 import { reflect, pixelNormal, rgbAt, writeSheet, relDiff } from './lib/sphere.mjs';
 import { orientationCheck, valueCheck } from './lib/checks.mjs';
 import { prefiltered, chainTruth, markerSource, smoothIrradiance } from './lib/reference.mjs';
-import { loadBakes } from './lib/data.mjs';
+import { loadBakes, expectedLevels } from './lib/data.mjs';
 
 const S = 129;
 const ENGINE_MIRROR = 'z';           // ENGINES.md: Babylon samples (x, y, -z) of SPEC
@@ -70,13 +70,14 @@ await run('babylon', async (s) => {
 
   const file = path.join(marker.dir, pre.dir, pre.files.environment);
   const env = readEnv(new Uint8Array(fs.readFileSync(file)));
-  const specLevels = env.levels.map((l) => mirrorLevel(l, ENGINE_MIRROR));
+  const fileSpec = env.levels.map((l) => mirrorLevel(l, ENGINE_MIRROR));
+  const specLevels = expectedLevels(marker, pre, fileSpec);
   const roughness = pre.specular.map((l) => l.roughness);
 
   const wrongDir = path.join(s.p.data, 'wrong');
   fs.mkdirSync(wrongDir, { recursive: true });
   const noMirror = path.join(wrongDir, 'babylon_nomirror.env');
-  fs.writeFileSync(noMirror, packEnv(specLevels, env.info.irradiance));
+  fs.writeFileSync(noMirror, packEnv(fileSpec, env.info.irradiance));
   const linear = path.join(wrongDir, 'babylon_linear.env');
   fs.writeFileSync(linear, packEnv(bakes.markerLinear(T + 1).map((l) => mirrorLevel(l, ENGINE_MIRROR)), env.info.irradiance));
 

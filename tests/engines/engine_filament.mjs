@@ -11,7 +11,7 @@ import { reflect, mix, pixelNormal, rgbAt, writeSheet, relDiff } from './lib/sph
 import { orientationCheck, valueCheck } from './lib/checks.mjs';
 import { prefiltered, markerSource, smoothIrradiance } from './lib/reference.mjs';
 import { sphereGlb } from './lib/glb.mjs';
-import { loadBakes } from './lib/data.mjs';
+import { loadBakes, expectedLevels } from './lib/data.mjs';
 
 const S = 129;
 const ENGINE_MIRROR = 'none';        // ENGINES.md: Filament samples its cube at (x, y, z)
@@ -48,14 +48,15 @@ await run('filament', async (s) => {
 
   const file = path.join(marker.dir, pre.dir, pre.files.specular);
   const ktx = readKtx1(new Uint8Array(fs.readFileSync(file)));
-  const specLevels = ktx.levels.map((l) => mirrorLevel(l, ENGINE_MIRROR));
+  const fileSpec = ktx.levels.map((l) => mirrorLevel(l, ENGINE_MIRROR));
+  const specLevels = expectedLevels(marker, pre, fileSpec);
   const roughness = pre.specular.map((l) => l.roughness);
 
   // Deliberately wrong exports.
   const wrongDir = path.join(s.p.data, 'wrong');
   fs.mkdirSync(wrongDir, { recursive: true });
   const xMirrored = path.join(wrongDir, 'filament_xmirror.ktx');
-  fs.writeFileSync(xMirrored, packKtx1(specLevels.map((l) => mirrorLevel(l, 'x')), { sh: ktx.keyValues.sh }));
+  fs.writeFileSync(xMirrored, packKtx1(fileSpec.map((l) => mirrorLevel(l, 'x')), { sh: ktx.keyValues.sh }));
   const linear = path.join(wrongDir, 'filament_linear.ktx');
   fs.writeFileSync(linear, packKtx1(bakes.markerLinear(T + 1), { sh: ktx.keyValues.sh }));
 

@@ -11,7 +11,7 @@ import { readCross } from './lib/exr.mjs';
 import { reflect, mix, pixelNormal, rgbAt, writeSheet, relDiff } from './lib/sphere.mjs';
 import { orientationCheck, valueCheck } from './lib/checks.mjs';
 import { prefiltered, chainTruth, markerSource, smoothIrradiance } from './lib/reference.mjs';
-import { loadBakes, snippetFor } from './lib/data.mjs';
+import { loadBakes, snippetFor, expectedLevels } from './lib/data.mjs';
 
 const S = 129;                       // odd: the centre pixel sees N = V exactly
 const ENGINE_MIRROR = 'x';           // ENGINES.md: three samples image cubes at (-x, y, z)
@@ -65,14 +65,15 @@ await run('three', async (s) => {
   // The preset's levels as three sees them (file) and in SPEC orientation (the truth the renders must show).
   const file = path.join(marker.dir, pre.dir, pre.files.specular);
   const fileLevels = readKtx2File(file).levels;
-  const specLevels = fileLevels.map((l) => mirrorLevel(l, ENGINE_MIRROR));
+  const fileSpec = fileLevels.map((l) => mirrorLevel(l, ENGINE_MIRROR));
+  const specLevels = expectedLevels(marker, pre, fileSpec);
   const roughness = pre.specular.map((l) => l.roughness);
 
   // Deliberately wrong exports for the negative controls.
   const wrongDir = path.join(s.p.data, 'wrong');
   fs.mkdirSync(wrongDir, { recursive: true });
   const noMirror = path.join(wrongDir, 'three_nomirror.ktx2');
-  fs.writeFileSync(noMirror, packKtx2(specLevels));                       // SPEC faces, no mirror
+  fs.writeFileSync(noMirror, packKtx2(fileSpec));                       // SPEC faces, no mirror
   const linear = path.join(wrongDir, 'three_linear.ktx2');
   const linLevels = bakes.markerLinear(T + 1).map((l) => mirrorLevel(l, ENGINE_MIRROR));
   fs.writeFileSync(linear, packKtx2(linLevels));                          // right mirror, linear r_m = m/T

@@ -5,6 +5,7 @@ README's load snippets as modules the pages can run.
 
 DATA/src         marker.exr, marker_babylon.exr, smooth.exr, sources.json
 DATA/marker      the marker baked with every engine preset
+DATA/marker_formats  the marker with the containers' other pixel formats
 DATA/smooth      the smooth source baked with the three, filament and babylon presets
 DATA/marker_linM the marker's SPEC chain with M levels (the levels of the
                  deliberately wrong "linear curve" exports; M = the three preset's)
@@ -21,6 +22,8 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ENGINE_PRESETS = ["three", "filament", "babylon"]
 ALL_PRESETS = ENGINE_PRESETS + ["khronos", "bevy", "unity"]
+# The other pixel formats the containers take, for the readers test.
+FORMAT_PRESETS = ["khronos:rgba32f", "bevy:rgba16f", "filament:r11g11b10f", "unity:rgba32f"]
 
 
 def bake(cli, src, out, presets=(), extra=()):
@@ -78,6 +81,7 @@ def main(argv):
     os.makedirs(src, exist_ok=True)
     subprocess.run([sys.executable, os.path.join(HERE, "make_sources.py"), src], check=True)
     bake(a.cli, os.path.join(src, "marker.exr"), os.path.join(a.out, "marker"), ALL_PRESETS)
+    bake(a.cli, os.path.join(src, "marker.exr"), os.path.join(a.out, "marker_formats"), FORMAT_PRESETS)
     bake(a.cli, os.path.join(src, "smooth.exr"), os.path.join(a.out, "smooth"), ENGINE_PRESETS)
     with open(os.path.join(a.out, "marker", "manifest.json")) as f:
         man = json.load(f)

@@ -23,6 +23,7 @@ export function loadBakes(data) {
   return {
     marker,
     smooth: bake(data, 'smooth', 'smooth.exr'),
+    other: (name, source = 'marker.exr') => bake(data, name, source),
     // SPEC chains with M levels (linear r_m = m / (M - 1)): the levels of the
     // deliberately wrong "linear curve" exports.
     // (The root bake's own chain when it has M levels.)
@@ -39,4 +40,15 @@ export function loadBakes(data) {
 export function snippetFor(engine) {
   const f = path.join(path.dirname(new URL(import.meta.url).pathname), '..', 'web', 'snippets', `${engine}.mjs`);
   return fs.existsSync(f) ? `/w/snippets/${engine}.mjs` : null;
+}
+
+// A preset's levels in SPEC orientation as the engine tests expect them: the
+// file's levels (read by another library, mirror undone), but level 0 (r = 0,
+// the source itself) from the bake's own EXR cross, so a face stored the
+// wrong way round (flipped, rotated) shows in the renders too.
+export function expectedLevels(bake, pre, fileLevelsSpec) {
+  const out = fileLevelsSpec.slice();
+  const root = bake.manifest.specular[0];
+  if (pre.specular[0].roughness === 0 && root.roughness === 0 && root.face_size === out[0].n) out[0] = bake.crossLevel(0);
+  return out;
 }
