@@ -73,9 +73,16 @@ std::array<Sh9, 3> filament_sh(const std::array<Sh9, 3>& sh9) {
 
 Polynomial babylon_polynomial(const std::array<Sh9, 3>& sh9) {
     const auto& k = kIrradianceShScale;
+    // Babylon renders a SphericalPolynomial through SphericalHarmonics::FromPolynomial
+    // and its pre-scaled basis, which (relative to band 0) multiplies band 1 by 3/2
+    // and band 2 by 4: its own cube -> polynomial path applies the cosine-lobe factors
+    // twice. So band l is stored times A_l / pi (1, 2/3, 1/4) and Babylon shows Irr
+    // (measured: tests/engines/engine_babylon.mjs).
+    constexpr double kBabylonBand[9] = {1.0, 2.0 / 3, 2.0 / 3, 2.0 / 3, 0.25, 0.25, 0.25, 0.25, 0.25};
     Polynomial p{};
     for (int c = 0; c < 3; ++c) {
-        const Sh9& L = sh9[c];
+        Sh9 L = sh9[c];
+        for (int i = 0; i < 9; ++i) L[i] *= kBabylonBand[i];
         const double constant = k[0] * L[0] - k[6] * L[6];  // times x^2 + y^2 + z^2 = 1
         p.x[c] = k[3] * L[3];
         p.y[c] = k[1] * L[1];

@@ -62,7 +62,10 @@ Encoded encode_env(const CubeChain& chain, const EncodeOptions& o) {
                 const float m = std::max({v[0], v[1], v[2]});
                 e.stats.largest = std::max(e.stats.largest, m);
                 e.stats.clamped += m > 255.0f;
-                rgbd_encode(v, rgba.data() + 4 * t);
+                // Babylon stores each face bottom row first (its own writer and loader
+                // do; tests/engines/engine_babylon.mjs measures it): row j goes to size - 1 - j.
+                const size_t row = size_t(c->size) - 1 - t / size_t(c->size), col = t % size_t(c->size);
+                rgbd_encode(v, rgba.data() + 4 * (row * size_t(c->size) + col));
             }
             images.push_back(io::encode_png8(c->size, c->size, 4, rgba.data()));
         }

@@ -32,9 +32,11 @@ extern const std::array<double, 9> kIrradianceShScale;
 // L_i k_i per channel.
 std::array<Sh9, 3> filament_sh(const std::array<Sh9, 3>& sh9);
 
-// Babylon's SphericalPolynomial: Irr(n) = x X + y Y + z Z + xx X^2 + yy Y^2 +
-// zz Z^2 + yz YZ + zx ZX + xy XY (per channel), the same function as the SH9
-// irradiance, written as a quadratic without constant (X^2 + Y^2 + Z^2 = 1).
+// Babylon's SphericalPolynomial, x X + y Y + z Z + xx X^2 + yy Y^2 + zz Z^2 +
+// yz YZ + zx ZX + xy XY (per channel): the SH9 irradiance written as a
+// quadratic without constant (X^2 + Y^2 + Z^2 = 1), with bands 1 and 2 scaled
+// by 2/3 and 1/4 because Babylon evaluates them 3/2 and 4 times stronger; so
+// evaluate() gives Irr for band 0 only, and Babylon renders Irr.
 struct Polynomial {
     std::array<double, 3> x, y, z, xx, yy, zz, yz, zx, xy;
 };
