@@ -30,8 +30,13 @@ TESTS=(libgtest-dev libgmock-dev libbenchmark-dev python3-pytest python3-matplot
 BLENDER=(blender blender-data)
 GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
 EXPORT=(libzstd-dev python3-zstandard)
+# Engine tests: Debian's chromium (headless, SwiftShader); node and npm from
+# Debian unless an npm is already on PATH (nodesource's nodejs ships its own
+# npm and conflicts with Debian's npm package).
+BROWSER=(chromium)
+command -v npm >/dev/null 2>&1 || BROWSER+=(nodejs npm)
 
-PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${GUI[@]}" "${EXPORT[@]}")
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${GUI[@]}" "${EXPORT[@]}" "${BROWSER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do
