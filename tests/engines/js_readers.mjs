@@ -68,7 +68,15 @@ await run('js_readers', async (s) => {
   const man = marker.manifest;
   const desc = marker.sources;
   const L = markerSource(desc);
-  const specLevels = man.specular.map((l, m) => ({ level: marker.crossLevel(m), n: l.face_size, r: l.roughness }));
+  // SPEC's chain of a bake, read once: a preset's twin levels are compared with
+  // the crosses of the same bake (levels integrated together with other
+  // presets' levels may differ from another bake's within the integration error).
+  const crossCache = new Map();
+  const specLevelsOf = (b) => {
+    if (!crossCache.has(b.dir))
+      crossCache.set(b.dir, b.manifest.specular.map((l, m) => ({ level: b.crossLevel(m), n: l.face_size, r: l.roughness })));
+    return crossCache.get(b.dir);
+  };
   const irradiance = readCross(path.join(marker.dir, man.irradiance.file));
   const sh9 = man.sh9;
   const memo = new Map();
@@ -94,10 +102,10 @@ await run('js_readers', async (s) => {
     const engine = name.split(':')[0];
     const pre = bake.manifest.presets?.[engine];
     if (!pre) throw new Error(`${bake.dir}: no presets.${engine} in the manifest`);
-    cases.push({ name, engine, pre, dir: path.join(bake.dir, pre.dir) });
+    cases.push({ name, engine, pre, bake, dir: path.join(bake.dir, pre.dir) });
   }
 
-  for (const { name, engine, pre, dir } of cases) {
+  for (const { name, engine, pre, bake, dir } of cases) {
     const E = ENGINES[engine];
     const file = path.join(dir, pre.files.specular || pre.files.environment);
     const bytes = new Uint8Array(fs.readFileSync(file));
@@ -159,7 +167,7 @@ await run('js_readers', async (s) => {
 
     // 3. Levels SPEC's chain holds too (same size and roughness): texels = the
     //    EXR cross after the mirror, within the format's rounding.
-    const twins = [];
+    const twins = [], specLevels = specLevelsOf(bake);
     pre.specular.forEach((l, m) => {
       const sm = specLevels.findIndex((x) => x.n === l.face_size && Math.abs(x.r - l.roughness) < 1e-9);
       if (sm >= 0) twins.push([m, sm]);
