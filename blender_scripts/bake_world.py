@@ -139,21 +139,6 @@ def configure(scene, args, out_dir: str, image_only: bool):
     props.output_dir = os.path.abspath(out_dir)
 
 
-def bake_with_presets(scene, presets):
-    """What the Bake IBL operator does (settings, scene needs, world, bake,
-    status), with the engine presets given on the command line."""
-    operators = sys.modules[bpy.types.IBLBAKE_OT_bake.__module__]
-    try:
-        with bpy.context.temp_override(scene=scene):
-            settings, needs, source, pixels, extra = operators.prepare(bpy.context, scene)
-        settings.presets = list(presets)
-        report = operators.pipeline.bake(source, pixels, settings, needs, operators._print_stages, extra)
-    except Exception as e:  # BakeError, WorldError, anything: one line, exit code 1
-        operators.record(scene, error=e)
-        raise RuntimeError(str(e)) from e
-    operators.record(scene, report)
-
-
 def bake_scene(args, out_dir: str, image=None):
     scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
     if scene is None:
@@ -161,13 +146,11 @@ def bake_scene(args, out_dir: str, image=None):
     if image is not None:
         scene.world = hdri_world(image, args.strength, args.rotation_z)
     configure(scene, args, out_dir, image is not None)
-    if args.preset is not None:
-        bake_with_presets(scene, args.preset)
-    else:
-        with bpy.context.temp_override(scene=scene):
-            result = bpy.ops.iblbake.bake()
-        if "FINISHED" not in result:
-            raise RuntimeError(scene.iblbake.last_error or "the bake did not finish")
+    override = {} if args.preset is None else {"override_presets": True, "presets": ",".join(args.preset)}
+    with bpy.context.temp_override(scene=scene):
+        result = bpy.ops.iblbake.bake(**override)
+    if "FINISHED" not in result:
+        raise RuntimeError(scene.iblbake.last_error or "the bake did not finish")
     print("iblbake: %s" % scene.iblbake.last_status, flush=True)
 
 

@@ -150,6 +150,11 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
     bl_label = "Bake IBL"
     bl_options = {"REGISTER"}
 
+    # Scripts (bake_world.py --preset) may replace the scene's engine presets
+    # for one bake: comma-separated names, "NAME:FORMAT" variants allowed.
+    presets: bpy.props.StringProperty(name="Presets", default="", options={"HIDDEN", "SKIP_SAVE"})
+    override_presets: bpy.props.BoolProperty(name="Override Presets", default=False, options={"HIDDEN", "SKIP_SAVE"})
+
     _running = None  # the running modal bake's operator (one at a time), for poll() and file loads
     _job = None      # this operator's worker thread (core.job.BakeJob), once started
 
@@ -169,6 +174,8 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         start = time.perf_counter()
         try:
             settings, needs, source, pixels, extra = prepare(context, scene)
+            if self.override_presets:
+                settings.presets = [n.strip() for n in self.presets.split(",") if n.strip()]
             report = pipeline.bake(source, pixels, settings, needs, progress, extra)
         except (pipeline.BakeError, world_reader.WorldError) as e:
             return self._fail(scene.name, e)
