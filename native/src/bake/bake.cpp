@@ -85,6 +85,34 @@ void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     }
 }
 
+// Warnings about the options alone (the caller's first).
+void option_warnings(BakeResult& r, const BakeOptions& o) {
+    r.warnings = o.warnings;
+    if (!o.irradiance && !o.specular && !o.lut)
+        r.warnings.push_back("every output is disabled: a written bake holds manifest.json alone");
+}
+
+bool all_finite(const std::vector<float>& v) {
+    for (const float x : v)
+        if (!std::isfinite(x)) return false;
+    return true;
+}
+
+// The last guard: nothing non-finite leaves a bake. A numpy source is read
+// in place without the GIL; one changed while it is read can put NaN in
+// the sums, and then the bake fails instead of writing them.
+void check_outputs(const BakeResult& r, bool source_in_place) {
+    bool ok = (!r.irradiance || all_finite(r.irradiance->pixels)) && (!r.lut || all_finite(r.lut->pixels));
+    for (const Cubemap& c : r.specular) ok = ok && all_finite(c.pixels);
+    for (const auto& ch : r.sh9)
+        for (const double v : ch) ok = ok && std::isfinite(v);
+    if (ok) return;
+    throw std::runtime_error(source_in_place
+                                 ? "the source array changed while it was being baked (a value that is not finite "
+                                   "reached the outputs); nothing was written: do not modify it during bake()"
+                                 : "a value that is not finite reached the outputs; nothing was written");
+}
+
 // Why an output is off: the caller's reason, else `fallback`.
 Skip skip_reason(const BakeOptions& o, const std::string& what, const std::string& fallback) {
     for (const Skip& s : o.skip_reasons)
@@ -171,6 +199,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                        LutCache* lut_cache) {
     o.validate();
     if (view.width < 1 || view.height < 1) throw std::invalid_argument("source image is empty");
+    const bool owned_source = owned != nullptr;
     return in_arena(o.threads, [&] {
         BakeResult r;
         StageClock clock(r);
@@ -184,6 +213,10 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         double done = 0.0;
         auto advance = [&](double w) { done += w / w_total; };
 
+        option_warnings(r, o);
+        if (view.width != 2 * view.height)
+            r.warnings.push_back("the source is " + std::to_string(view.width) + " x " + std::to_string(view.height) +
+                                 ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
         report("reading source", 0.0);
         const SourceScan scan = scan_source(view);
         r.bad_input = scan.bad;
@@ -363,6 +396,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
             r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
         }
+        check_outputs(r, !owned_source);
         report("done", 1.0);
         return r;
     });
@@ -392,6 +426,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         auto report = [&](const std::string& stage, double f) {
             if (progress && !progress(stage, f)) throw Cancelled();
         };
+        option_warnings(r, o);
         report("reading source", 0.0);
         Image one(1, 1);
         std::copy(rgb.begin(), rgb.end(), one.pixels.begin());
@@ -429,6 +464,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         } else {
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
+        check_outputs(r, false);
         report("done", 1.0);
         return r;
     });

@@ -1,5 +1,7 @@
 #include "iblbake/bake/bake_file.h"
 
+#include <chrono>
+
 #include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
@@ -11,6 +13,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     bo.validate();
     wo.validate();
     io::check_replaceable(outdir, source_path);  // before any work: nothing to lose later
+    const auto start = std::chrono::steady_clock::now();
     io::LoadedImage loaded = io::read_image(source_path);
     SourceInfo src;
     src.path = source_path;
@@ -18,8 +21,12 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     src.height = loaded.image.height;
     src.sha256 = io::sha256_file(source_path);
     src.linearised = loaded.linearised;
-    const BakeResult r = compute_bake(std::move(loaded.image), bo, progress, lut_cache);
-    return write_bake(r, outdir, bo, wo, src);
+    const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    BakeOptions o = bo;
+    o.warnings.insert(o.warnings.begin(), loaded.warnings.begin(), loaded.warnings.end());
+    BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache);
+    r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
+    return write_bake(r, outdir, bo, wo, src, progress);
 }
 
 }  // namespace iblbake

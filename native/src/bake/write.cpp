@@ -5,11 +5,14 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <mutex>
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/image/encode.h"
+#include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
+#include "iblbake/io/text.h"
 
 namespace iblbake {
 
@@ -22,19 +25,26 @@ constexpr float kHalfMax = 65504.0f;
 
 const char* png_encoding_name(PngEncoding e) { return e == PngEncoding::Srgb ? "srgb8" : "rgbm"; }
 
+// Called between bands of rows: throws Cancelled when the caller says stop.
+using Poll = std::function<void()>;
+
 // Writes one cube as a cross (EXR and/or PNG) and records encodings.
 void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cube, const WriteOptions& wo,
-                 json& encodings) {
+                 json& encodings, const Poll& poll) {
     const int w = 4 * cube.size, h = 3 * cube.size;
     if (wo.exr) {
         // Streamed in bands of the cross: no whole-cross buffer.
         const bool full = wo.float32 || exceeds_half(cube.pixels);
         io::write_exr_rows((dir / (stem + ".exr")).string(), w, h, 4, full ? io::ExrPixel::Float : io::ExrPixel::Half,
-                           [&](int y0, int rows, float* out) { hcross_rgba_rows(cube, y0, rows, out); });
+                           [&](int y0, int rows, float* out) {
+                               poll();
+                               hcross_rgba_rows(cube, y0, rows, out);
+                           });
         encodings[stem + ".exr"] = full ? "float" : "half";
     }
     if (wo.png) {  // streamed in bands too, each encoded as it goes
         io::write_png8_rows((dir / (stem + ".png")).string(), w, h, 4, [&](int y0, int rows, float* out) {
+            poll();
             hcross_rgba_rows(cube, y0, rows, out);
             const size_t n = size_t(rows) * w * 4;
             if (wo.png_encoding == PngEncoding::Srgb) encode_srgb_in_place(out, n, wo.exposure);
@@ -64,7 +74,8 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     json m;
     m["contract"] = 1;
     m["generator"] = "iblbake";
-    m["source"] = {{"path", src.path.empty() ? json(nullptr) : json(src.path)},
+    // A file name that is not UTF-8 is stored with its odd bytes as \xNN (JSON holds UTF-8 only).
+    m["source"] = {{"path", src.path.empty() ? json(nullptr) : json(io::printable(src.path))},
                    {"width", src.width},
                    {"height", src.height},
                    {"sha256", src.sha256.empty() ? json(nullptr) : json(src.sha256)},
@@ -129,6 +140,8 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     if (write_seconds >= 0.0) timings["write"] = write_seconds;
     m["timings"] = timings;
     m["mean_radiance"] = r.mean_radiance;
+    m["warnings"] = r.warnings;
+    m["files"] = json::object();  // filled by write_bake
     m["integration_grid"] = {{"width", r.integration_width},
                              {"height", r.integration_height},
                              {"note", "sources coarser than this are resampled from the bilinear L (SPEC 1) onto it"}};
@@ -163,21 +176,32 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
 }
 
 json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
-                const SourceInfo& src) {
+                const SourceInfo& src, const ProgressFn& progress) {
     wo.validate();
     const auto start = std::chrono::steady_clock::now();
     io::StagingDir staging(outdir);
     const fs::path dir = staging.path();
+    std::mutex poll_mutex;
+    bool stopped = false;
+    const Poll poll = [&] {
+        if (!progress) return;
+        std::lock_guard<std::mutex> lock(poll_mutex);
+        if (stopped || !progress("writing", 0.0)) {
+            stopped = true;
+            throw Cancelled();
+        }
+    };
     // One job per file set, written in parallel (separate files, separate
     // encoders); each records its encodings, merged in a fixed order.
     std::vector<std::function<void(json&)>> jobs;
-    if (r.irradiance) jobs.push_back([&](json& e) { write_cross(dir, "irradiance", *r.irradiance, wo, e); });
+    if (r.irradiance) jobs.push_back([&](json& e) { write_cross(dir, "irradiance", *r.irradiance, wo, e, poll); });
     for (size_t i = 0; i < r.specular.size(); ++i)
         jobs.push_back([&, i](json& e) {
-            write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, e);
+            write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, e, poll);
         });
     if (r.lut)
         jobs.push_back([&](json& e) {
+            poll();
             const Image& lut = *r.lut;
             if (wo.exr) {
                 io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
@@ -197,11 +221,26 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
         for (const auto& [file, enc] : part.items()) encodings[file] = enc;
     const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     json manifest = make_manifest(r, bo, wo, src, encodings, write_seconds);
+    // Every file's size and sha256: a skip check ("unchanged") can tell a
+    // damaged or truncated output from the one written here.
+    json files = json::object();
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
+         it.increment(ec)) {
+        if (!it->is_regular_file()) continue;
+        poll();
+        const std::string rel = fs::relative(it->path(), dir).generic_string();
+        files[rel] = {{"bytes", it->file_size()}, {"sha256", io::sha256_file(it->path().string())}};
+    }
+    if (ec) throw std::runtime_error("cannot list the files written: " + ec.message());
+    manifest["files"] = files;
     {
         std::ofstream f(dir / "manifest.json");
         f << manifest.dump(2) << "\n";
+        f.close();
         if (!f) throw std::runtime_error("cannot write manifest.json");
     }
+    poll();  // the last moment a cancel leaves the earlier bake in place
     staging.commit();
     return manifest;
 }

@@ -12,10 +12,12 @@
 #include <Imath/half.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
 
+#include "iblbake/io/image_io.h"
 #include "raw_pixels.h"
 
 namespace iblbake::io::detail {
@@ -38,20 +40,43 @@ int exr_threads() {
 
 }  // namespace
 
-RawPixels read_exr(const std::string& path) {
+namespace {
+// OpenEXR's own header check refuses larger windows and tiles, before it
+// sizes its chunk tables from them.
+void limit_exr_sizes() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        Imf::Header::setMaxImageSize(int(kMaxSourceSide), int(kMaxSourceSide));
+        Imf::Header::setMaxTileSize(8192, 8192);
+    });
+}
+
+int checked_int(int64_t v, const char* what) {
+    if (v < -(int64_t(1) << 30) || v > (int64_t(1) << 30)) throw std::runtime_error(std::string(what) + " out of range");
+    return int(v);
+}
+}  // namespace
+
+RawPixels read_exr(const std::string& path, uintmax_t file_size) {
     RawPixels out;
     out.format = "openexr";
+    limit_exr_sizes();
     Imf::InputFile in(path.c_str(), exr_threads());
     const Imf::Header& h = in.header();
     const Imath::Box2i dw = h.dataWindow(), disp = h.displayWindow();
-    out.width = dw.max.x - dw.min.x + 1;
-    out.height = dw.max.y - dw.min.y + 1;
-    out.full_width = disp.max.x - disp.min.x + 1;
-    out.full_height = disp.max.y - disp.min.y + 1;
-    out.x_offset = dw.min.x - disp.min.x;
-    out.y_offset = dw.min.y - disp.min.y;
-    if (out.width < 1 || out.height < 1) throw std::runtime_error("image has no pixels");
+    const int64_t width = int64_t(dw.max.x) - dw.min.x + 1, height = int64_t(dw.max.y) - dw.min.y + 1;
     const Imf::ChannelList& ch = h.channels();
+    int declared_channels = 0;
+    for (auto it = ch.begin(); it != ch.end(); ++it) ++declared_channels;
+    check_declared(width, height, std::min(declared_channels, 3), file_size);
+    if (!in.isComplete()) throw std::runtime_error("file is truncated or damaged (rows are missing)");
+    out.width = int(width);
+    out.height = int(height);
+    out.full_width = checked_int(int64_t(disp.max.x) - disp.min.x + 1, "display window");
+    out.full_height = checked_int(int64_t(disp.max.y) - disp.min.y + 1, "display window");
+    out.x_offset = checked_int(int64_t(dw.min.x) - disp.min.x, "data window offset");
+    out.y_offset = checked_int(int64_t(dw.min.y) - disp.min.y, "data window offset");
+    if (out.full_width < 1 || out.full_height < 1) out.full_width = out.full_height = 0;
     // Luminance-chroma files need OpenEXR's RGBA conversion (half precision).
     if (ch.findChannel("RY") || ch.findChannel("BY")) {
         Imf::RgbaInputFile rgba(path.c_str(), exr_threads());

@@ -19,19 +19,21 @@ void write_png_file_rows(const std::string& path, int width, int height, int cha
     if (!f) throw std::runtime_error("cannot open for writing");
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!png || !info) {
-        png_destroy_write_struct(&png, &info);
-        throw std::runtime_error("libpng could not start");
-    }
+    // Freed however this ends (an exception from `fill`, a cancel, included).
+    struct Guard {
+        png_structp* png;
+        png_infop* info;
+        ~Guard() {
+            if (*png) png_destroy_write_struct(png, info);
+        }
+    } guard{&png, &info};
+    if (!png || !info) throw std::runtime_error("libpng could not start");
     const int stride = width * channels * (bits / 8);
     std::vector<unsigned char> row(stride);
     // Bands of 64 rows from `fill`: no whole-image buffer.
     const int band = std::min(64, height);
     std::vector<float> values(size_t(width) * channels * band);
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        throw std::runtime_error("libpng failed");
-    }
+    if (setjmp(png_jmpbuf(png))) throw std::runtime_error("libpng failed (disk full?)");
     png_init_io(png, f.get());
     png_set_compression_level(png, 6);
     static const int kTypes[5] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
@@ -57,7 +59,7 @@ void write_png_file_rows(const std::string& path, int width, int height, int cha
         png_write_row(png, row.data());
     }
     png_write_end(png, nullptr);
-    png_destroy_write_struct(&png, &info);
+    if (std::fflush(f.get()) != 0 || std::ferror(f.get())) throw std::runtime_error("write failed (disk full?)");
 }
 
 }  // namespace iblbake::io::detail

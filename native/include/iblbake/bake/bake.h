@@ -52,6 +52,9 @@ struct BakeOptions {
     int max_hot = 1024;               // ... and at most this many
     bool strict = false;              // bad texels are an error instead of 0
     int threads = 0;                  // 0: all cores
+    // The caller's warnings (an odd file, an ignored option, ...): the
+    // result's `warnings` start with them.
+    std::vector<std::string> warnings;
 
     // Throws std::invalid_argument naming the option at fault.
     void validate() const;
@@ -82,6 +85,8 @@ struct BakeResult {
     // came from the cache.
     std::vector<int> specular_normaliser_from_cache;
     int integration_width = 0, integration_height = 0;  // the grid the integrals ran on
+    // Questionable input that was baked anyway (the manifest's `warnings`).
+    std::vector<std::string> warnings;
 };
 
 struct Cancelled : std::runtime_error {
@@ -98,7 +103,10 @@ using ProgressFn = std::function<bool(const std::string& stage, double fraction)
 class LutCache;
 
 // The whole bake in memory. `source` is a Blender lat-long image; it is
-// cleaned in place (SPEC.md section 1). With a `lut_cache`, the LUT is read
+// cleaned in place (SPEC.md section 1). Every output is checked to be
+// finite before the bake returns: a non-finite value (a source changed
+// while it was read, a damaged table) makes it throw std::runtime_error
+// instead of reporting success. With a `lut_cache`, the LUT is read
 // from it when present and stored into it when made.
 BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {},
                         LutCache* lut_cache = nullptr);
