@@ -458,3 +458,55 @@ def test_d17_negative_strength_and_no_world_warn(tmp_path, capfd):
     rep = pipeline.bake(WorldSource(RENDER, "the scene has no world", world=None), latlong(),
                         settings(tmp_path, force=True))
     assert any("no world" in w for w in rep.manifest["warnings"])
+
+
+# --- D5: declared-size bombs; D7: truncated JPEG ------------------------------------------------
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "hostile"))
+import corpus  # noqa: E402
+
+
+def peak_run(argv):
+    """(returncode, stderr, peak RSS in MB) of one CLI run."""
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(p.pid, 0)
+    err = p.stderr.read().decode()
+    p.stdout.close()
+    p.stderr.close()
+    return os.waitstatus_to_exitcode(status), err, usage.ru_maxrss / 1024
+
+
+@pytest.mark.parametrize("name, data", [
+    ("display.exr", corpus.exr_bytes(display_window=(0, 0, 24575, 12287))),
+    ("header_only.exr", corpus.exr_bytes(data_window=(0, 0, 29999, 15999), chunks=False)),
+    ("over_max.exr", corpus.exr_bytes(data_window=(0, 0, 39999, 19999), chunks=False)),
+    ("over_max.png", corpus.png_bytes(40000, 20000)),
+    ("under_max.png", corpus.png_bytes(30000, 16000)),
+    ("under_max.hdr", corpus.hdr_bytes(30000, 16000, rows=0)),
+])
+def test_d5_declared_size_bombs_stay_small(tmp_path, name, data):
+    src = tmp_path / name
+    src.write_bytes(data)
+    rc, err, mb = peak_run([CLI, "bake", str(src), "-o", str(tmp_path / "o"), *CLI_SMALL])
+    assert mb < 300, "peak %.0f MB (%s)" % (mb, err)
+    if name == "display.exr":  # the data window alone is baked, with a warning
+        assert rc == 0 and "data window" in err, err
+    else:
+        assert rc == 1 and one_line_error(err_proc(err)), err
+
+
+def err_proc(err):
+    return subprocess.CompletedProcess([], 1, "", err)
+
+
+def test_d7_truncated_jpeg_is_an_error(tmp_path):
+    good = tmp_path / "good.jpg"
+    subprocess.run(["oiiotool", "--pattern", "noise", "256x128", "3", "-d", "uint8", "-o", str(good)], check=True,
+                   capture_output=True)
+    data = good.read_bytes()
+    assert run("bake", str(good), "-o", str(tmp_path / "ok"), *CLI_SMALL).returncode == 0  # negative control
+    for keep in (0.01, 0.5, 0.95):
+        cut = tmp_path / ("cut%d.jpg" % int(keep * 100))
+        cut.write_bytes(data[:max(4, int(len(data) * keep))])
+        r = run("bake", str(cut), "-o", str(tmp_path / "o"), *CLI_SMALL)
+        assert r.returncode == 1 and one_line_error(r) and "truncated" in r.stderr, r.stderr

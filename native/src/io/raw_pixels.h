@@ -26,6 +26,10 @@ bool is_exr(const std::string& path);
 // and plausible for a file of `file_size` bytes (io/image_io.h).
 void check_declared(int64_t width, int64_t height, int channels, uintmax_t file_size);
 RawPixels read_exr(const std::string& path, uintmax_t file_size);
+RawPixels read_png(const std::string& path, uintmax_t file_size);
+// Throws unless every strip or tile a TIFF's first image lists lies within
+// the file (libtiff reads a cut file's missing strips as black, quietly).
+void check_tiff_complete(const std::string& path, uintmax_t file_size);
 void write_exr_file_rows(const std::string& path, int width, int height, int channels, bool half,
                          const std::function<void(int y0, int rows, float* out)>& fill);
 void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,
