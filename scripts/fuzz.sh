@@ -68,7 +68,7 @@ export IBLBAKE_FUZZ_TMP="${IBLBAKE_FUZZ_TMP:-/dev/shm}"
 set +e
 PAR=()
 [ "$JOBS" -le 1 ] || PAR=(-fork="$JOBS" -ignore_crashes=1 -ignore_ooms=1 -ignore_timeouts=1)
-( cd "$OUT" && nice -n 19 ./fuzz_read_image -max_total_time="$SECONDS_TOTAL" -rss_limit_mb=2048 -timeout=30 \
+( cd "$OUT" && nice -n 19 ./fuzz_read_image -max_total_time="$SECONDS_TOTAL" -rss_limit_mb=2048 -timeout=60 -report_slow_units=120 \
     -max_len=65536 "${PAR[@]}" -artifact_prefix=findings/ -print_final_stats=1 corpus seeds > fuzz.log 2>&1 )
 rc=$?
 set -e

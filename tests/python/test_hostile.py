@@ -373,8 +373,14 @@ def test_d18_progress_returning_non_bool_is_a_clear_type_error():
 # --- D19: messages ------------------------------------------------------------------------------
 
 def test_d19_raw_bytes_are_not_echoed(tmp_path):
+    import struct
+    # A channel named 0xFF 0xFE with an invalid pixel type: OpenEXR's message quotes the name.
+    h = corpus.exr_bytes()
+    v = h.replace(b"B\0\x02\0\0\0", b"\xff\xfe\0\x07\0\0\0", 1)
+    i = v.index(b"chlist\0") + 7
+    v = v[:i] + struct.pack("<i", struct.unpack("<i", v[i:i + 4])[0] + 1) + v[i + 4:]
     bad = tmp_path / "bad.exr"
-    bad.write_bytes(b"\x76\x2f\x31\x01\x02\x00\x00\x00" + b"\xff" * 64 + b"\xfe\x80\x00" * 20)
+    bad.write_bytes(v)
     r = subprocess.run([CLI, "bake", str(bad), "-o", str(tmp_path / "o")], capture_output=True)
     assert r.returncode == 1
     err = r.stderr.decode("utf-8")  # valid UTF-8 ...

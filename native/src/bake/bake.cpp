@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/ibl/bin_tree.h"
@@ -386,8 +387,17 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             skip("brdf_lut");
         }
         if (scale_exp != 0) {
+            // Back to the source's scale; a result past the float range (a
+            // world of 3.4e38 convolved) saturates at the largest float, counted.
+            size_t saturated = 0;
             auto rescale = [&](std::vector<float>& px) {
-                for (float& v : px) v = std::ldexp(v, scale_exp);
+                for (float& v : px) {
+                    v = std::ldexp(v, scale_exp);
+                    if (std::isinf(v)) {
+                        v = std::copysign(std::numeric_limits<float>::max(), v);
+                        ++saturated;
+                    }
+                }
             };
             if (r.irradiance) rescale(r.irradiance->pixels);
             for (Cubemap& c : r.specular) rescale(c.pixels);
@@ -395,6 +405,9 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 for (double& v : ch) v = std::ldexp(v, scale_exp);
             for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
             r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
+            if (saturated)
+                r.warnings.push_back(std::to_string(saturated) +
+                                     " output values exceeded the float range and were saturated at 3.4e38");
         }
         check_outputs(r, !owned_source);
         report("done", 1.0);
