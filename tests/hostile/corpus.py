@@ -241,6 +241,8 @@ def cases() -> List[Case]:
         "bomb_exr_1x65536.exr": exr_bytes(data_window=(0, 0, 0, 65535), chunks=False),
         "bomb_exr_65537x1.exr": exr_bytes(data_window=(0, 0, 65536, 0), chunks=False),
         "bomb_exr_missing_lines.exr": exr_bytes(lines=5),
+        # Found by scripts/fuzz.sh: OpenEXR 3.1 allocated an attribute's declared 1.9 GB before reading it.
+        "bomb_exr_attribute_1.9GB.exr": exr_bytes()[:8] + b"capDate\0string\0" + struct.pack("<i", 1936286739) + b"x" * 700,
         "bomb_png_40000x20000.png": png_bytes(40000, 20000),
         "bomb_png_30000x16000.png": png_bytes(30000, 16000),
         "bomb_png_2147483647x1.png": png_bytes(2**31 - 1, 1),

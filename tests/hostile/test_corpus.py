@@ -151,7 +151,7 @@ def outcome(case, rc, stderr, out, earlier_bytes, parent):
     m = check_outputs(out)
     if m["bad_input"]["pixels"]:
         STATS["repairs_counted"] += 1
-    if m["warnings"]:
+    if m.get("warnings"):
         STATS["warned"] += 1
     return m
 

@@ -489,6 +489,8 @@ def peak_run(argv):
     ("over_max.png", corpus.png_bytes(40000, 20000)),
     ("under_max.png", corpus.png_bytes(30000, 16000)),
     ("under_max.hdr", corpus.hdr_bytes(30000, 16000, rows=0)),
+    # Found by the fuzzer: an attribute declaring 1.9 GB in an 819-byte file (OpenEXR 3.1 allocated it).
+    ("attribute.exr", corpus.exr_bytes()[:8] + b"capDate\0string\0" + (1936286739).to_bytes(4, "little") + b"x" * 700),
 ])
 def test_d5_declared_size_bombs_stay_small(tmp_path, name, data):
     src = tmp_path / name

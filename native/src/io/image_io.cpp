@@ -264,11 +264,12 @@ LoadedImage read_image(const std::string& path) {
         const size_t n = std::fread(head, 1, sizeof(head), f.get());
         if (n >= 4 && std::memcmp(head, "\x76\x2f\x31\x01", 4) == 0) format = "openexr";
         else format = sniff(head, n);
+        const bool jpeg_magic = format == "jpeg";
         if (format.empty()) format = format_of_extension(path);
         if (format.empty())
             fail(path, "not an image format iblbake reads (its first bytes are not EXR, PNG, JPEG, Radiance HDR, "
                        "TIFF, ... and its extension names none)");
-        if (format == "jpeg" && !jpeg_has_end(f.get(), size)) fail(path, "JPEG file is truncated (no end-of-image marker)");
+        if (jpeg_magic && !jpeg_has_end(f.get(), size)) fail(path, "JPEG file is truncated (no end-of-image marker)");
     }
     try {
         if (format == "openexr") return finish(detail::read_exr(path, size));

@@ -144,6 +144,11 @@ void check_replaceable(const fs::path& destination, const fs::path& keep) {
         throw std::runtime_error("output " + quoted(raw) + " is a symbolic link to " +
                                  quoted(fs::read_symlink(raw, ec)) +
                                  ", which does not exist; remove the link or create its target");
+    for (const fs::path& part : destination)
+        if (part.native().size() > 255)
+            throw std::runtime_error("output " + quoted(destination) + ": the name " + quoted(fs::path(part.native().substr(0, 24) + "...")) +
+                                     " is " + std::to_string(part.native().size()) +
+                                     " bytes long; file systems allow 255");
     const fs::path dest = normalised(destination);
     if (dest == dest.root_path()) throw std::runtime_error("refusing to write a bake over '/'");
     if (is_within(fs::current_path(ec), dest))
