@@ -255,6 +255,10 @@ def cases() -> List[Case]:
     for name, data in bombs.items():
         out.append(Case(name, "bomb", _write(data), expect="error" if "display" not in name else "any"))
     out.append(Case("bomb_jpeg_65535x65535.jpg", "bomb", _jpeg_sof(65535, 65535), expect="error"))
+    # Found by scripts/fuzz.sh: OpenImageIO 2.4's JPEG reader read past its buffer in decode_iptc_iim
+    # (AddressSanitizer); JPEG is now read with libjpeg directly. The input, as the fuzzer saved it.
+    import base64
+    out.append(Case("fuzz_found_iptc_overread.jpg", "fuzz", _write(base64.b64decode(FUZZ_IPTC_OVERREAD))))
     # Odd but legal: sizes from 1 x 1, channel layouts, bad values (counted repairs).
     odd = {
         "odd_1x1.exr": exr_bytes(1, 1),
@@ -324,6 +328,34 @@ def cases() -> List[Case]:
     names = [c.name for c in out]
     assert len(names) == len(set(names)), "duplicate case names"
     return out
+
+
+FUZZ_IPTC_OVERREAD = (
+    '/9j/4AAQSkZJRgAB//////8BAAD/4QGwRXhpZgAASUkqAFQBAABvaWlvdG9vbCAtLXBhaHRlcm4gZmlsbDp0b3BsZWZ0PTAuMSww'
+    'LjIsMC40OnRvcHJpZ2h0PTIsMS41LDE6Ym90dG9tbGVmdD0wLjA1LDAuMSwwLjAyOmJvdHRvbXJpZ2h0PTAuMywwLjIsMC4xIDY0'
+    '+DMyIDMgLWQgdWluZDggLW8gL3RtcC90bXBsOGoyejc0YS9yZ2IuanBnAE9wZW5JbWFnZUlPIDIuNC43LjEgOiBvaWlvdG9vbCAt'
+    'LXBhdHRlcm4gZmlsbDp0b3BsZWZ0PTAuMSwwLjIsMC40OnRvcHJpZ2h0PTIsMS41LDE6Ym90dG9tbGVmdD0wLjA1LDAuMSwwLjAy'
+    'OmJvdHRvbXJpZ2h0PTAuMywwLjIsMC4xIDY0eDMyIDMgLWQgdWludDggLW8gL3RtcC90bXBsOGoyejc0YS9yZ2IuanBnAAIAMQEC'
+    'ALEAAACjAAAAaYcEAAEAAAByAQAAAAAAAAQAAJAHAAQAAAAwMjMwAZEHAAQAAAABAgMAE5ICAJsAAAAIAAAAAKAHAAQAAAAwMTAw'
+    'AAAAAP/tACxQaG90b3Nob3AgMy4wADhCSU0EBAAAAAAAtRwCQQCwT3BlbkltYWdlSU8gMi40LjcuMSA6IG9paW90b29sIC0tcGF0'
+    'dGVybiBmaWxsOnRvcGxlZnQ9MC4xLDAuMiwwLjQ6dG9wcmlnaHQ9MiwxLjUsMTpib3R0b21sZWZ0PTAuMDUsMC4xLDAuMDI6Ym90'
+    'dG9tcmlnaHQ9MC4zLDAuMiwwLjEgNjR4MzIgMyAtZCB1aW50OCAtbyAvdG1wL3RtcGw4ajJ6NzRhL3JnYi5qcGf/2wBDAAEBAQEB'
+    'AQEBAQEBAQEBAQIBAQEBAQIBAQECAgICAgICAgIDAwQDAwMDAwIEAwIDBAMEBAQEAgMFBQQEBQQEBAT/2wBDAQEBAQEBAQIBAQIE'
+    'AwIDBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAT/wAARCAAgAEADASIAAhEBAxEB/8QA'
+    'HwAAAQUBAQEBAQEAAAAAAAAAAAECAwQFBgcICQoL/8QAtRAAAgEDAwIEAwUFBAQAAAF9AQIDAAQRBRIhMUEGE1FhByJxFDKBkaEI'
+    'I0KxwRVS0fAkM2JyggkKFhcYGRolJicoKSo0NTY3ODk6Q0RFRkdISUpTVFVWV1hZWmNkZWZnaGlqc3R1dnd4eXqDhIWGh4iJipKT'
+    'lJWWl5iZmqKjpKWmp6ipqrKztLW2t7i5usLDxMXGx8jJytLT1NXW19jZ2uHi4+Tl5ufo6erx8vP09fb3+Pn6/8QAHwEAAwEBAQEB'
+    'AQEBAQAAAAAAAAECAwQFBgcICQoL/8QAtREAAgECBAQDBAcFBAQAAQJ3AAECAxEEBSExBhJBUQdhcRMiMoEIFEKRobHB8FIjMwkV'
+    'YnLRChYkNOEl8RcYGRomJygpKjU2Nzg5OkNERUZHSElKU1RVVldYWVpjZGVmZ2hpanN0dXZ3eHl6goOEhYaHiImKkpOUlZaXmJma'
+    'oqOkpaanqKmqsrO0tba3uLm6wsPExcbHyCfJytLT1NXW19jZ2uLj5OXm5+jp6vLz9PX29/j5+v/aAAwDAQACEQMRAD8A/n8+EWue'
+    'R9l+fGMEc6N+zSJ88afZ/sv73GABjdxX4r/DrXBB5B34xg46ECvvL4deNPI+z/vcdP4sAV+oca579Z5/ePleFafseU/fv4R/EzyP'
+    'sv8ApGMYP3q/Ub4R/GMQi2BusDgHL9enFfzYfDr4meR9n/0gjBGPn6V94/Dr4yeR5AN3jGP46/knjOP1nmP6W4UzF0eTU/p3+H/x'
+    'ainSBo7oDIGV38ivqbQfHNhqcaBpkSQjrn5T9a/nU+Hfx88jyM32MY/5aV9weBv2gLWdYQ94FbA+YScV/N+b1Mdl1Z1KLenY+7zD'
+    'hHK+JaXtqDUK34M/YaHUFYBlcMp5BDbhWjFfYx82OO56V8K+FfjhCyRbbxJEOOPM3ce4r3HR/irpF6qiWRUZv4lfr+FLLfFXOMom'
+    'o1I4pb/82E3w7zvLpNyouUe6R/jseE9c8jyvnxjHU4r6d8JeNPI8o+bjGOpxX5/6VrnkbTv6DBGcYr0rSvGnkFf32MY/ixmv7fzP'
+    'Plib+8fh2VU3Rsfqp4T+JnkeV/pGMY/ix+dfTvhL4yeR5f8ApeMYzl8ALXGcV+cZpw79ZuuW5+lZTxN7C3vH9UvhL9qzyPKzqWMY'
+    '/wCW2K+l/C/7XduBGJb9G6dZMH+dfyG6V+1Z5G3/AImXTg/vf/r16VpX7Ynk7f8Aia9P+m+M1+d5l4fvENuMD9Jy3jiEYKFRpx7P'
+    'X8z/2Q==')
 
 
 def hash_name(name: str) -> int:

@@ -274,6 +274,7 @@ LoadedImage read_image(const std::string& path) {
     try {
         if (format == "openexr") return finish(detail::read_exr(path, size));
         if (format == "png") return finish(detail::read_png(path, size));
+        if (format == "jpeg") return finish(detail::read_jpeg(path, size));
         if (format == "tiff") detail::check_tiff_complete(path, size);
         return finish(read_with_plugin(path, format, size));
     } catch (const std::bad_alloc&) {

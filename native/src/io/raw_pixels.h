@@ -27,6 +27,7 @@ bool is_exr(const std::string& path);
 void check_declared(int64_t width, int64_t height, int channels, uintmax_t file_size);
 RawPixels read_exr(const std::string& path, uintmax_t file_size);
 RawPixels read_png(const std::string& path, uintmax_t file_size);
+RawPixels read_jpeg(const std::string& path, uintmax_t file_size);
 // Throws unless every strip or tile a TIFF's first image lists lies within
 // the file (libtiff reads a cut file's missing strips as black, quietly).
 void check_tiff_complete(const std::string& path, uintmax_t file_size);
