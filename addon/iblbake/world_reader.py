@@ -67,8 +67,10 @@ def _constant(sock):
     return not sock.is_linked
 
 
-def classify(world) -> WorldSource:
-    """What the node tree is, without reading pixels or rendering."""
+def classify(world, check_image: bool = False) -> WorldSource:
+    """What the node tree is, without reading pixels or rendering. With
+    check_image (the bake does this; a panel's draw need not load the file),
+    an Environment Texture whose image Blender cannot load raises WorldError."""
     name = world.name if world else None
     if world is None:
         raise WorldError(NO_WORLD)
@@ -102,6 +104,14 @@ def classify(world) -> WorldSource:
         raise WorldError("the world's Environment Texture '%s' has no image" % env.name)
     if img.source not in ("FILE", "GENERATED"):
         return WorldSource(RENDER, "image source %s" % img.source, world=name)
+    # Before any fallback: an image Blender cannot load would render as its
+    # missing-texture magenta, and that must never become a bake.
+    # Without check_image (the UI's click, which must not load an 8K file on
+    # the main thread) the cheap signs still count: a missing file, or an
+    # image Blender already failed to load (no color space).
+    why_not = _unreadable(img) if check_image else _unreadable_cheap(img)
+    if why_not:
+        raise WorldError("the world's image '%s' cannot be read: %s" % (img.name, why_not))
     mapping, why = _mapping(env.inputs["Vector"])
     if why:
         return WorldSource(RENDER, why, world=name)
@@ -115,6 +125,32 @@ def classify(world) -> WorldSource:
     except ValueError as e:
         return WorldSource(RENDER, str(e), world=name)
     return src
+
+
+def _unreadable_cheap(img):
+    """Why an image cannot be read, from what Blender knows without loading it."""
+    if img.source != "FILE":
+        return ""
+    path = os.path.abspath(bpy.path.abspath(img.filepath, library=img.library)) if img.filepath else ""
+    if img.packed_file is None and path and not os.path.isfile(path):
+        return "no file at %s" % path
+    if not img.colorspace_settings.name:
+        return "Blender could not load %s (not an image, or a format it does not read)" % (path or "the packed file")
+    return ""
+
+
+def _unreadable(img):
+    """Why Blender has no pixels for a file image ('' when it has them)."""
+    cheap = _unreadable_cheap(img)
+    if cheap or img.source != "FILE":
+        return cheap
+    path = os.path.abspath(bpy.path.abspath(img.filepath, library=img.library)) if img.filepath else ""
+    if img.has_data:
+        return ""
+    w, h = img.size  # loads the file
+    if w > 0 and h > 0:
+        return ""
+    return "Blender could not load %s (not an image, or a format it does not read)" % (path or "the packed file")
 
 
 def _is_float(img, path):
@@ -394,9 +430,9 @@ class ChildRender:
 
 
 def read_world(scene, render_width: int, render_samples: int):
-    """(WorldSource, pixels or None for a plain colour), on the main thread
+    """(WorldSource, pixels or None for a plain color), on the main thread
     (scripts and `blender -b`; the UI's operator runs these steps as a job)."""
-    src = classify(scene.world)
+    src = classify(scene.world, check_image=True)
     if src.path == IMAGE:
         try:
             return src, read_image_pixels(src)

@@ -1,17 +1,22 @@
 // iblbake CLI: parses arguments and calls bake_file(). No integration here.
 #include <CLI/CLI.hpp>
 
-#include <atomic>
-#include <csignal>
+#include <unistd.h>
 
+#include <atomic>
+#include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
+#include <new>
 #include <string>
 #include <vector>
 
 #include "iblbake/bake/bake_file.h"
 #include "iblbake/export/export.h"
+#include "iblbake/io/text.h"
 
 namespace {
 // The presets table (docs/export.md), one block per preset.
@@ -40,14 +45,28 @@ void print_presets() {
     std::printf("\nModifiers: NAME:FORMAT (one the preset takes), NAME:zstd / NAME:nozstd (KTX2).\n");
 }
 
-// SIGINT / SIGTERM ask the bake to stop at its next stage: it then throws
-// Cancelled, nothing is written and the staging folder is removed.
-std::atomic<bool> g_stop{false};
-extern "C" void request_stop(int) { g_stop = true; }
+// SIGINT / SIGTERM: while the source is read (nothing made yet, nothing to
+// clean) the process ends at once; later they ask the bake to stop at its
+// next stage or band of rows being written: it then throws Cancelled, the
+// staging folder is removed and the earlier bake stays. Either way the exit
+// code is 128 + the signal's number. Once the finished bake is renamed into
+// place, a signal is too late and the bake stands.
+std::atomic<int> g_signal{0};
+std::atomic<bool> g_reading{true};
+extern "C" void request_stop(int sig) {
+    g_signal = sig;
+    if (g_reading) {
+        static const char msg[] = "iblbake: error: interrupted while reading the source; nothing was written\n";
+        ssize_t ignored = ::write(2, msg, sizeof(msg) - 1);
+        (void)ignored;
+        ::_exit(128 + sig);
+    }
+}
 }  // namespace
 
 int main(int argc, char** argv) {
     using namespace iblbake;
+    const auto started = std::chrono::steady_clock::now();
     CLI::App app{"iblbake: bake image-based lighting (irradiance, GGX specular, BRDF LUT) from a lat-long HDRI"};
     app.set_version_flag("--version", "iblbake 0.1 (contract 1)");
     bool list_presets = false;
@@ -124,8 +143,8 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::cerr << "iblbake: error: " << e.what() << " (see iblbake bake --help)\n";
-        return 2;
+        std::cerr << "iblbake: error: " << io::printable(e.what()) << " (see iblbake bake --help)\n";
+        return 1;
     }
 
     if (list_presets || presets_cmd->parsed()) {
@@ -134,7 +153,7 @@ int main(int argc, char** argv) {
     }
     if (!bake->parsed()) {
         std::cerr << "iblbake: error: a subcommand is required: bake or presets (see iblbake --help)\n";
-        return 2;
+        return 1;
     }
 
     try {
@@ -148,6 +167,12 @@ int main(int argc, char** argv) {
             bo.specular_quality.max_phi = std::max(bo.specular_quality.min_phi,
                                                    int(std::lround(2.0 * std::sqrt(double(samples)))));
         }
+        // Options of the other specular method are not silently dropped.
+        const bool fis = bo.specular_method == SpecularMethod::Fis;
+        for (const char* opt : {"--samples", "--rings", "--lod-bias"})
+            if (!fis && bake->count(opt))
+                bo.warnings.push_back(std::string(opt) + " applies to --specular-method fis only: ignored");
+        if (fis && bake->count("--eps")) bo.warnings.push_back("--eps applies to --specular-method hierarchical only: ignored");
         bo.irradiance = !no_irr;
         bo.specular = !no_spec;
         bo.lut = !no_lut;
@@ -162,15 +187,23 @@ int main(int argc, char** argv) {
         else throw std::invalid_argument("unknown PNG encoding '" + encoding + "' (expected srgb or rgbm)");
 
         FileLutCache cache(cache_dir);
-        std::signal(SIGINT, request_stop);
-        std::signal(SIGTERM, request_stop);
-        const nlohmann::json m = bake_file(source, outdir, bo, wo, [](const std::string&, double) { return !g_stop; },
-                                           no_cache ? nullptr : &cache);
+        struct sigaction sa {};
+        sa.sa_handler = request_stop;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGINT, &sa, nullptr);
+        sigaction(SIGTERM, &sa, nullptr);
+        const auto progress = [](const std::string& stage, double) {
+            // The source is read and scanned; from here on a signal cancels cooperatively.
+            if (stage != "reading source") g_reading = false;
+            return g_signal == 0;
+        };
+        const nlohmann::json m = bake_file(source, outdir, bo, wo, progress, no_cache ? nullptr : &cache);
+        g_reading = false;
+        for (const auto& w : m["warnings"]) std::cerr << "iblbake: warning: " << w.get<std::string>() << "\n";
         if (!quiet) {
-            double total = 0.0;
-            for (const auto& [k, v] : m["timings"].items()) total += v.get<double>();
-            std::printf("baked %s -> %s in %.3f s (%zu specular levels, bad pixels: %llu)\n", source.c_str(),
-                        outdir.c_str(), total, m["specular"].size(),
+            const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+            std::printf("baked %s -> %s in %.3f s (reading included; %zu specular levels, bad pixels: %llu)\n",
+                        io::printable(source).c_str(), io::printable(outdir).c_str(), wall, m["specular"].size(),
                         (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
             if (m.contains("presets"))
                 for (const auto& [name, entry] : m["presets"].items()) {
@@ -182,10 +215,19 @@ int main(int argc, char** argv) {
         }
         return 0;
     } catch (const Cancelled& e) {
-        std::cerr << "iblbake: error: " << e.what() << " (interrupted); nothing was written\n";
-        return 130;
+        g_reading = false;
+        const int sig = g_signal;
+        std::cerr << "iblbake: error: " << e.what() << " (" << (sig ? strsignal(sig) : "interrupted")
+                  << "); nothing was written, the earlier bake is unchanged\n";
+        return 128 + (sig ? sig : SIGINT);
+    } catch (const std::bad_alloc&) {
+        std::cerr << "iblbake: error: out of memory (try a smaller --face-size or source)\n";
+        return 1;
     } catch (const std::exception& e) {
-        std::cerr << "iblbake: error: " << e.what() << "\n";
+        std::string msg = io::printable(e.what());
+        const std::string fs_prefix = "filesystem error: ";
+        if (msg.rfind(fs_prefix, 0) == 0) msg = "file system: " + msg.substr(fs_prefix.size());
+        std::cerr << "iblbake: error: " << msg << "\n";
         return 1;
     }
 }

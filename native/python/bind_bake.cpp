@@ -124,8 +124,20 @@ Parsed parse_options(const pybind11::dict& kw) {
         }
         else if (key == "manifest_extra") {
             if (!pybind11::isinstance<pybind11::dict>(v)) value_error("manifest_extra must be a dict");
-            const std::string text = pybind11::str(pybind11::module_::import("json").attr("dumps")(v));
-            wo.manifest_extra = nlohmann::json::parse(text);
+            std::string text;
+            try {
+                text = pybind11::str(pybind11::module_::import("json").attr("dumps")(v, pybind11::arg("allow_nan") = false));
+            } catch (const pybind11::error_already_set& e) {
+                if (e.matches(PyExc_ValueError))
+                    value_error("manifest_extra: every number must be a finite number (JSON has no NaN or infinity)");
+                value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " +
+                            std::string(e.what()));
+            }
+            wo.manifest_extra = nlohmann::json::parse(text, nullptr, false);
+            if (wo.manifest_extra.is_discarded()) value_error("manifest_extra is not valid JSON");
+        } else if (key == "warnings") {
+            for (const std::string& w : get_as<std::vector<std::string>>(v, key, "a list of str"))
+                bo.warnings.push_back(w);
         } else if (key == "lut_cache_dir") lut_cache_dir = v.is_none() ? std::string() : as_str();
         else value_error("unknown option '" + key + "'");
     }
@@ -137,13 +149,23 @@ Parsed parse_options(const pybind11::dict& kw) {
     return out;
 }
 
-// A progress callback that may be called from any thread with the GIL released.
+// A progress callback that may be called from any thread with the GIL
+// released. Ctrl-C is honoured here too (PyErr_CheckSignals, in the main
+// thread): the bake then unwinds, removes its staging folder and bake()
+// raises KeyboardInterrupt. The callback returns True or None to go on and
+// False to cancel; anything else is a TypeError.
 ProgressFn wrap_progress(const pybind11::object& cb) {
-    if (cb.is_none()) return {};
     return [cb](const std::string& stage, double f) {
         pybind11::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) throw pybind11::error_already_set();
+        if (cb.is_none()) return true;
         const pybind11::object r = cb(stage, f);
-        return r.is_none() || r.cast<bool>();
+        if (r.is_none()) return true;
+        if (pybind11::isinstance<pybind11::bool_>(r) ||
+            pybind11::isinstance(r, pybind11::module_::import("numpy").attr("bool_")))
+            return bool(pybind11::bool_(r));
+        throw pybind11::type_error("progress callback must return True or None (go on) or False (cancel), got " +
+                                   std::string(pybind11::str(pybind11::type::of(r).attr("__name__"))));
     };
 }
 
@@ -177,6 +199,17 @@ pybind11::dict result_dict(const BakeResult& r) {
     return d;
 }
 
+// A path argument: str, os.PathLike or bytes (file system encoding, so a
+// name that is not UTF-8 round-trips); anything else is a TypeError.
+std::string path_arg(const pybind11::handle& v, const char* what) {
+    const pybind11::module_ os = pybind11::module_::import("os");
+    if (!pybind11::isinstance<pybind11::str>(v) && !pybind11::isinstance<pybind11::bytes>(v) &&
+        !pybind11::hasattr(v, "__fspath__"))
+        throw pybind11::type_error(std::string(what) + " must be a str, bytes or os.PathLike path, got " +
+                                   std::string(pybind11::str(pybind11::type::of(v).attr("__name__"))));
+    return os.attr("fsencode")(v).cast<std::string>();
+}
+
 // bake() and bake_constant()'s out_dir: "" for none; checked with the GIL
 // held, before any work, so that a refused folder costs nothing.
 std::string checked_out_dir(const pybind11::object& out_dir, const Parsed& p) {
@@ -184,7 +217,7 @@ std::string checked_out_dir(const pybind11::object& out_dir, const Parsed& p) {
         if (!p.wo.presets.empty()) value_error("presets write files: give an out_dir");
         return {};
     }
-    const std::string out = pybind11::str(out_dir);
+    const std::string out = path_arg(out_dir, "out_dir");
     if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
     p.wo.validate();
     io::check_replaceable(out, p.source_path);
@@ -201,7 +234,7 @@ pybind11::dict run_bake(Parsed& p, const std::string& out, SourceInfo src, Compu
         pybind11::gil_scoped_release release;
         r = compute(src);
         manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
-                               : write_bake(r, out, p.bo, p.wo, src);
+                               : write_bake(r, out, p.bo, p.wo, src, p.progress);
     }
     pybind11::dict d = result_dict(r);
     d["manifest"] = json_to_py(manifest);
@@ -286,8 +319,17 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
           "The CLI's LUT cache folder: $IBLBAKE_CACHE_DIR, else $XDG_CACHE_HOME/iblbake, else ~/.cache/iblbake.");
 
     m.def(
+        "check_options",
+        [](const pybind11::kwargs& kw) {
+            Parsed p = parse_options(kw);
+            p.wo.validate();
+        },
+        "Raise ValueError, with the CLI's message, if bake()'s keyword options are not valid; do nothing else.");
+
+    m.def(
         "bake_file",
-        [](const std::string& source, const std::string& out_dir, const pybind11::kwargs& kw) {
+        [](const pybind11::object& source_obj, const pybind11::object& out_obj, const pybind11::kwargs& kw) {
+            const std::string source = path_arg(source_obj, "source"), out_dir = path_arg(out_obj, "out_dir");
             Parsed p = parse_options(kw);
             nlohmann::json manifest;
             {

@@ -4,6 +4,7 @@ atomically. No bpy."""
 import hashlib
 import json
 import os
+import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -101,22 +102,63 @@ def content_hash(source: WorldSource, pixel_digest: Optional[str], opts: dict, s
     return h.hexdigest()
 
 
+def file_sha256(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def existing_hash(out_dir: str) -> Optional[str]:
-    """The content hash of the complete bake in out_dir, if there is one."""
+    """The content hash of the complete, intact bake in out_dir, if there is
+    one: every file the manifest lists (`files`: size and sha256) must be
+    there with its size and sha256, so a truncated or damaged output is baked
+    again, never kept as "unchanged". A manifest without `files` (an older
+    bake) is not trusted."""
     try:
         with open(os.path.join(out_dir, "manifest.json")) as f:
             m = json.load(f)
     except (OSError, ValueError):
         return None
-    files = [e["file"] for e in m.get("specular") or []]
-    for key in ("irradiance", "brdf_lut"):
-        if m.get(key):
-            files.append(m[key]["file"])
-    for preset in (m.get("presets") or {}).values():  # each engine preset's folder
-        files.extend(os.path.join(preset["dir"], f) for f in preset["files"].values())
-    if not all(os.path.isfile(os.path.join(out_dir, f)) for f in files):
+    if not isinstance(m, dict):
         return None
+    files = m.get("files")
+    if not isinstance(files, dict) or not files:
+        return None
+    listed = [e.get("file") for e in m.get("specular") or [] if isinstance(e, dict)]
+    for key in ("irradiance", "brdf_lut"):
+        if isinstance(m.get(key), dict):
+            listed.append(m[key].get("file"))
+    for preset in (m.get("presets") or {}).values():  # each engine preset's folder
+        if isinstance(preset, dict):
+            listed.extend(os.path.join(preset.get("dir", ""), f).replace(os.sep, "/")
+                          for f in (preset.get("files") or {}).values() if isinstance(f, str))
+    if any(f not in files for f in listed):
+        return None
+    for name, entry in files.items():
+        path = os.path.join(out_dir, name)
+        try:
+            if os.path.getsize(path) != entry["bytes"] or file_sha256(path) != entry["sha256"]:
+                return None
+        except (OSError, KeyError, TypeError):
+            return None
     return (m.get("blender") or {}).get("content_hash")
+
+
+def source_warnings(source: WorldSource) -> list:
+    """What about the world itself deserves a warning (the native bake adds
+    its own: odd files, options, shapes)."""
+    out = []
+    if source.world is None:
+        out.append("the scene has no world: baked what Cycles renders without one (black)")
+    if source.path != COLOR and isinstance(source.strength, (int, float)) and source.strength < 0:
+        out.append("the world's Background Strength is negative (%g): negative radiance is baked as 0"
+                   % source.strength)
+    if source.path == COLOR and any(c < 0 for c in source.color):
+        out.append("the world colour times Strength is negative (%s): baked as 0"
+                   % ", ".join("%g" % c for c in source.color))
+    return out
 
 
 def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettings,
@@ -163,6 +205,9 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
     if "waited" in blender:  # the stages before the native bake, as the UI's job ran them
         blender["waited"] = dict(blender["waited"], hash_pixels=round(hash_seconds, 4))
     opts["manifest_extra"] = {"blender": blender}
+    warnings = source_warnings(source)
+    if warnings:
+        opts["warnings"] = warnings
     cache = settings.lut_cache_dir or core.default_lut_cache_dir()
     if cache:
         opts["lut_cache_dir"] = cache
@@ -182,4 +227,6 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         raise
     except (ValueError, RuntimeError, OSError) as e:  # bad input, a refused or unwritable folder
         raise BakeError(str(e)) from e
+    for w in result["manifest"].get("warnings") or []:
+        print("iblbake: warning: %s" % w, file=sys.stderr, flush=True)
     return BakeReport("baked", out_dir, digest, result["manifest"], time.perf_counter() - start)

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/ibl/bin_tree.h"
@@ -178,6 +179,38 @@ void extra_lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     }
 }
 
+// Warnings about the options alone (the caller's first).
+void option_warnings(BakeResult& r, const BakeOptions& o) {
+    r.warnings = o.warnings;
+    const bool exports = o.extra.irradiance || !o.extra.specular.empty() || !o.extra.luts.empty() || o.extra.keep_source;
+    if (!o.irradiance && !o.specular && !o.lut && !exports)
+        r.warnings.push_back("every output is disabled: a written bake holds manifest.json alone");
+}
+
+bool all_finite(const std::vector<float>& v) {
+    for (const float x : v)
+        if (!std::isfinite(x)) return false;
+    return true;
+}
+
+// The last guard: nothing non-finite leaves a bake. A numpy source is read
+// in place without the GIL; one changed while it is read can put NaN in
+// the sums, and then the bake fails instead of writing them.
+void check_outputs(const BakeResult& r, bool source_in_place) {
+    bool ok = (!r.irradiance || all_finite(r.irradiance->pixels)) && (!r.lut || all_finite(r.lut->pixels));
+    for (const Cubemap& c : r.specular) ok = ok && all_finite(c.pixels);
+    ok = ok && (!r.extra_irradiance || all_finite(r.extra_irradiance->pixels));
+    for (const ExtraSpecularLevel& e : r.extra_specular) ok = ok && all_finite(e.cube.pixels);
+    for (const auto& [model, lut] : r.extra_luts) ok = ok && all_finite(lut.pixels);
+    for (const auto& ch : r.sh9)
+        for (const double v : ch) ok = ok && std::isfinite(v);
+    if (ok) return;
+    throw std::runtime_error(source_in_place
+                                 ? "the source array changed while it was being baked (a value that is not finite "
+                                   "reached the outputs); nothing was written: do not modify it during bake()"
+                                 : "a value that is not finite reached the outputs; nothing was written");
+}
+
 // Why an output is off: the caller's reason, else `fallback`.
 Skip skip_reason(const BakeOptions& o, const std::string& what, const std::string& fallback) {
     for (const Skip& s : o.skip_reasons)
@@ -268,6 +301,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                        LutCache* lut_cache) {
     o.validate();
     if (view.width < 1 || view.height < 1) throw std::invalid_argument("source image is empty");
+    const bool owned_source = owned != nullptr;
     return in_arena(o.threads, [&] {
         BakeResult r;
         StageClock clock(r);
@@ -282,6 +316,10 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         double done = 0.0;
         auto advance = [&](double w) { done += w / w_total; };
 
+        option_warnings(r, o);
+        if (view.width != 2 * view.height)
+            r.warnings.push_back("the source is " + std::to_string(view.width) + " x " + std::to_string(view.height) +
+                                 ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
         report("reading source", 0.0);
         const SourceScan scan = scan_source(view);
         r.bad_input = scan.bad;
@@ -514,8 +552,17 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 std::copy_n(source.at(0, y), size_t(source.width) * 3, r.source->at(0, y));
         }
         if (scale_exp != 0) {
+            // Back to the source's scale; a result past the float range (a
+            // world of 3.4e38 convolved) saturates at the largest float, counted.
+            size_t saturated = 0;
             auto rescale = [&](std::vector<float>& px) {
-                for (float& v : px) v = std::ldexp(v, scale_exp);
+                for (float& v : px) {
+                    v = std::ldexp(v, scale_exp);
+                    if (std::isinf(v)) {
+                        v = std::copysign(std::numeric_limits<float>::max(), v);
+                        ++saturated;
+                    }
+                }
             };
             if (r.irradiance) rescale(r.irradiance->pixels);
             if (r.extra_irradiance) rescale(r.extra_irradiance->pixels);
@@ -526,7 +573,11 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 for (double& v : ch) v = std::ldexp(v, scale_exp);
             for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
             r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
+            if (saturated)
+                r.warnings.push_back(std::to_string(saturated) +
+                                     " output values exceeded the float range and were saturated at 3.4e38");
         }
+        check_outputs(r, !owned_source);
         report("done", 1.0);
         return r;
     });
@@ -556,6 +607,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         auto report = [&](const std::string& stage, double f) {
             if (progress && !progress(stage, f)) throw Cancelled();
         };
+        option_warnings(r, o);
         report("reading source", 0.0);
         Image one(1, 1);
         std::copy(rgb.begin(), rgb.end(), one.pixels.begin());
@@ -599,6 +651,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
         extra_lut_stage(r, o, lut_cache);
+        check_outputs(r, false);
         report("done", 1.0);
         return r;
     });

@@ -1,5 +1,7 @@
 #include "iblbake/bake/bake_file.h"
 
+#include <chrono>
+
 #include "iblbake/export/plan.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
@@ -13,6 +15,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     wo.validate();
     plan_presets(bo, wo.presets);  // a preset the options cannot serve fails here, before any work
     io::check_replaceable(outdir, source_path);  // before any work: nothing to lose later
+    const auto start = std::chrono::steady_clock::now();
     io::LoadedImage loaded = io::read_image(source_path);
     SourceInfo src;
     src.path = source_path;
@@ -20,9 +23,12 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     src.height = loaded.image.height;
     src.sha256 = io::sha256_file(source_path);
     src.linearised = loaded.linearised;
-    const BakeOptions with = with_exports(bo, wo);  // the levels and files the presets need
-    const BakeResult r = compute_bake(std::move(loaded.image), with, progress, lut_cache);
-    return write_bake(r, outdir, with, wo, src);
+    const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    BakeOptions o = with_exports(bo, wo);  // the levels and files the presets need
+    o.warnings.insert(o.warnings.begin(), loaded.warnings.begin(), loaded.warnings.end());
+    BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache);
+    r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
+    return write_bake(r, outdir, o, wo, src, progress);
 }
 
 }  // namespace iblbake

@@ -5,13 +5,16 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <mutex>
 
 #include "iblbake/export/export.h"
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/image/encode.h"
 #include "iblbake/image/preview.h"
+#include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
+#include "iblbake/io/text.h"
 
 #ifndef IBLBAKE_VERSION
 #define IBLBAKE_VERSION "dev"
@@ -60,9 +63,12 @@ std::vector<LayoutImage> layout_images(const std::string& stem, const Cubemap& c
     return {};
 }
 
+// Called between bands of rows: throws Cancelled when the caller says stop.
+using Poll = std::function<void()>;
+
 // Writes one cube in the layout (EXR and/or PNG) and records encodings.
 void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cube, const WriteOptions& wo,
-                 json& encodings) {
+                 json& encodings, const Poll& poll) {
     std::shared_ptr<const BorderedCube> bordered;
     // A lat-long resamples the cube bilinearly: it stays within the cube's range.
     const bool full = wo.float32 || exceeds_half(cube.pixels);
@@ -70,13 +76,17 @@ void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cu
         if (wo.exr) {
             // Streamed in bands: no whole-image buffer.
             io::write_exr_rows((dir / (img.stem + ".exr")).string(), img.width, img.height, 4,
-                               full ? io::ExrPixel::Float : io::ExrPixel::Half, img.rows);
+                               full ? io::ExrPixel::Float : io::ExrPixel::Half, [&](int y0, int rows, float* out) {
+                                   poll();
+                                   img.rows(y0, rows, out);
+                               });
             encodings[img.stem + ".exr"] = full ? "float" : "half";
         }
         if (wo.png) {  // streamed in bands too, each encoded as it goes
             const int w = img.width;
             io::write_png8_rows((dir / (img.stem + ".png")).string(), img.width, img.height, 4,
                                 [&](int y0, int rows, float* out) {
+                                    poll();
                                     img.rows(y0, rows, out);
                                     const size_t n = size_t(rows) * w * 4;
                                     if (wo.png_encoding == PngEncoding::Srgb) encode_srgb_in_place(out, n, wo.exposure);
@@ -130,7 +140,8 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     json m;
     m["contract"] = 1;
     m["generator"] = "iblbake";
-    m["source"] = {{"path", src.path.empty() ? json(nullptr) : json(src.path)},
+    // A file name that is not UTF-8 is stored with its odd bytes as \xNN (JSON holds UTF-8 only).
+    m["source"] = {{"path", src.path.empty() ? json(nullptr) : json(io::printable(src.path))},
                    {"width", src.width},
                    {"height", src.height},
                    {"sha256", src.sha256.empty() ? json(nullptr) : json(src.sha256)},
@@ -203,6 +214,8 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     if (write_seconds >= 0.0) timings["write"] = write_seconds;
     m["timings"] = timings;
     m["mean_radiance"] = r.mean_radiance;
+    m["warnings"] = r.warnings;
+    m["files"] = json::object();  // filled by write_bake
     m["integration_grid"] = {{"width", r.integration_width},
                              {"height", r.integration_height},
                              {"note", "sources coarser than this are resampled from the bilinear L (SPEC 1) onto it"}};
@@ -242,21 +255,32 @@ BakeOptions with_exports(BakeOptions bo, const WriteOptions& wo) {
 }
 
 json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
-                const SourceInfo& src) {
+                const SourceInfo& src, const ProgressFn& progress) {
     wo.validate();
     const auto start = std::chrono::steady_clock::now();
     io::StagingDir staging(outdir);
     const fs::path dir = staging.path();
+    std::mutex poll_mutex;
+    bool stopped = false;
+    const Poll poll = [&] {
+        if (!progress) return;
+        std::lock_guard<std::mutex> lock(poll_mutex);
+        if (stopped || !progress("writing", 0.0)) {
+            stopped = true;
+            throw Cancelled();
+        }
+    };
     // One job per file set, written in parallel (separate files, separate
     // encoders); each records its encodings, merged in a fixed order.
     std::vector<std::function<void(json&)>> jobs;
-    if (r.irradiance) jobs.push_back([&](json& e) { write_cross(dir, "irradiance", *r.irradiance, wo, e); });
+    if (r.irradiance) jobs.push_back([&](json& e) { write_cross(dir, "irradiance", *r.irradiance, wo, e, poll); });
     for (size_t i = 0; i < r.specular.size(); ++i)
         jobs.push_back([&, i](json& e) {
-            write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, e);
+            write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, e, poll);
         });
     if (r.lut)
         jobs.push_back([&](json& e) {
+            poll();
             const Image& lut = *r.lut;
             if (wo.exr) {
                 io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
@@ -269,12 +293,20 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
                 e["brdf_lut.png"] = "unorm16";
             }
         });
-    if (wo.preview) jobs.push_back([&](json& e) { write_preview((dir / "preview.png").string(), r); e["preview.png"] = "srgb8"; });
+    if (wo.preview)
+        jobs.push_back([&](json& e) {
+            poll();
+            write_preview((dir / "preview.png").string(), r);
+            e["preview.png"] = "srgb8";
+        });
     // Each engine preset's files into dir/<preset> (export/export.h).
     const std::vector<PresetPlan> plans = plan_presets(bo, wo.presets);  // the jobs refer to it
     const std::vector<ExportJob> exports = export_jobs(r, bo, plans, dir, "iblbake " IBLBAKE_VERSION);
     std::vector<json> preset_parts(exports.size());
-    for (size_t k = 0; k < exports.size(); ++k) jobs.push_back([&, k](json&) { preset_parts[k] = exports[k].run(); });
+    for (size_t k = 0; k < exports.size(); ++k) jobs.push_back([&, k](json&) {
+            poll();
+            preset_parts[k] = exports[k].run();
+        });
     std::vector<json> parts(jobs.size(), json::object());
     parallel_for(0, int(jobs.size()), [&](int k) { jobs[k](parts[k]); });
     json encodings = json::object();
@@ -287,11 +319,26 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
         for (size_t k = 0; k < exports.size(); ++k) presets[exports[k].preset] = preset_parts[k];
         manifest["presets"] = presets;
     }
+    // Every file's size and sha256: a skip check ("unchanged") can tell a
+    // damaged or truncated output from the one written here.
+    json files = json::object();
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
+         it.increment(ec)) {
+        if (!it->is_regular_file()) continue;
+        poll();
+        const std::string rel = fs::relative(it->path(), dir).generic_string();
+        files[rel] = {{"bytes", it->file_size()}, {"sha256", io::sha256_file(it->path().string())}};
+    }
+    if (ec) throw std::runtime_error("cannot list the files written: " + ec.message());
+    manifest["files"] = files;
     {
         std::ofstream f(dir / "manifest.json");
         f << manifest.dump(2) << "\n";
+        f.close();
         if (!f) throw std::runtime_error("cannot write manifest.json");
     }
+    poll();  // the last moment a cancel leaves the earlier bake in place
     staging.commit();
     return manifest;
 }

@@ -68,6 +68,9 @@ struct BakeOptions {
     bool strict = false;              // bad texels are an error instead of 0
     int threads = 0;                  // 0: all cores
     ExtraOutputs extra;               // for engine presets
+    // The caller's warnings (an odd file, an ignored option, ...): the
+    // result's `warnings` start with them.
+    std::vector<std::string> warnings;
 
     // Throws std::invalid_argument naming the option at fault.
     void validate() const;
@@ -112,6 +115,8 @@ struct BakeResult {
     std::optional<Cubemap> extra_irradiance;  // when `irradiance` is off
     std::vector<std::pair<LutModel, Image>> extra_luts;
     std::optional<Image> source;              // the cleaned source (keep_source)
+    // Questionable input that was baked anyway (the manifest's `warnings`).
+    std::vector<std::string> warnings;
 };
 
 struct Cancelled : std::runtime_error {
@@ -128,7 +133,10 @@ using ProgressFn = std::function<bool(const std::string& stage, double fraction)
 class LutCache;
 
 // The whole bake in memory. `source` is a Blender lat-long image; it is
-// cleaned in place (SPEC.md section 1). With a `lut_cache`, the LUT is read
+// cleaned in place (SPEC.md section 1). Every output is checked to be
+// finite before the bake returns: a non-finite value (a source changed
+// while it was read, a damaged table) makes it throw std::runtime_error
+// instead of reporting success. With a `lut_cache`, the LUT is read
 // from it when present and stored into it when made.
 BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {},
                         LutCache* lut_cache = nullptr);

@@ -17,12 +17,31 @@ struct LoadedImage {
     int source_channels;  // as stored in the file
     bool linearised;      // an integer sRGB file was converted to linear
     std::string format;   // OpenImageIO's format name ("openexr", "hdr", "png", ...)
+    std::vector<std::string> warnings;  // what was odd but readable (a 2-channel file, a cropped window, ...)
 };
 
-// EXR, Radiance .hdr, PNG, JPEG (anything OpenImageIO reads). Grey is
-// expanded, alpha dropped; integer (8/16-bit) files are treated as sRGB and
-// linearised unless they declare a linear colour space. Throws
-// std::runtime_error with a one-line reason on missing, empty or corrupt files.
+// The largest source any reader (and bake()) accepts, checked before
+// anything is allocated: at most kMaxSourceSide on a side and
+// kMaxSourcePixels in all (32768 x 16384: 6.4 GB of RGB floats).
+constexpr int64_t kMaxSourceSide = 65536;
+constexpr int64_t kMaxSourcePixels = int64_t(32768) * 16384;
+// A file must hold at least one byte per kMaxExpansion bytes of the float
+// pixels its header declares (no codec of these formats packs more; a
+// 500-byte header declaring gigabytes is refused before any allocation).
+constexpr int64_t kMaxExpansion = 65536;
+// Throws std::runtime_error (one line) when a width x height image is empty
+// or larger than the maximum; `what` names it ("image", "display window").
+void check_source_size(int64_t width, int64_t height, const std::string& what = "image");
+
+// EXR, Radiance .hdr, PNG, JPEG, TIFF and the other formats OpenImageIO
+// reads, the format told by the file's first bytes, else by its extension
+// (no probing of every reader). Grey is expanded, alpha dropped; integer
+// (8/16-bit) files are treated as sRGB and linearised unless they declare a
+// linear colour space. Throws std::runtime_error with a one-line reason on
+// missing, empty, non-regular (FIFO, device), truncated, corrupt or
+// oversized files. An EXR's display window is baked when it holds the data
+// window and is at most 4 times its size (outside the data is black),
+// else the data window alone, with a warning.
 LoadedImage read_image(const std::string& path);
 
 enum class ExrPixel { Half, Float };
