@@ -30,7 +30,7 @@ OPTION_NAMES = ("face_size", "irradiance_size", "mip_count", "lut_size", "lut_mo
 
 # Native stage names -> what the panel says.
 STAGE_WORDS = {"reading source": "Scanning the image", "specular": "Specular levels", "irradiance": "Irradiance",
-               "brdf_lut": "BRDF LUT", "done": "Writing files", "starting": "Starting",
+               "brdf_lut": "BRDF LUT", "done": "Writing files", "writing": "Writing files", "starting": "Starting",
                "hashing": "Checking for changes"}
 
 

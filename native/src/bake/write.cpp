@@ -265,7 +265,7 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
     const Poll poll = [&] {
         if (!progress) return;
         std::lock_guard<std::mutex> lock(poll_mutex);
-        if (stopped || !progress("writing", 0.0)) {
+        if (stopped || !progress("writing", 1.0)) {  // the computing is done
             stopped = true;
             throw Cancelled();
         }

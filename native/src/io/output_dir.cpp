@@ -73,7 +73,7 @@ bool holds_a_bake(const fs::path& dir) {
 // with its size and sha256) and `encodings`, its listed outputs, and any name
 // iblbake writes (for a manifest too damaged to parse).
 bool written_by_a_bake(const std::string& rel, const std::set<std::string>& listed) {
-    static const std::regex kOwn(R"((manifest\.json|(irradiance|brdf_lut|specular_[0-9]+)\.(exr|png)))");
+    static const std::regex kOwn(R"((manifest\.json|preview\.png|(irradiance|brdf_lut|specular_[0-9]+)\.(exr|png)))");
     return listed.count(rel) || std::regex_match(rel, kOwn);
 }
 
@@ -90,6 +90,15 @@ std::set<std::string> files_of_manifest(const fs::path& dir) {
     if (m.contains("specular") && m["specular"].is_array())
         for (const auto& e : m["specular"])
             if (e.is_object() && e.contains("file") && e["file"].is_string()) out.insert(e["file"].get<std::string>());
+    // Engine presets' folders (a manifest written before `files` was kept).
+    if (m.contains("presets") && m["presets"].is_object())
+        for (const auto& [name, e] : m["presets"].items()) {
+            if (!e.is_object() || !e.contains("dir") || !e["dir"].is_string() || !e.contains("files") ||
+                !e["files"].is_object())
+                continue;
+            for (const auto& [role, f] : e["files"].items())
+                if (f.is_string()) out.insert((fs::path(e["dir"].get<std::string>()) / f.get<std::string>()).generic_string());
+        }
     return out;
 }
 

@@ -49,7 +49,7 @@ void write_preview(const std::string& path, const BakeResult& r);
 
 // Write every output and manifest.json into `outdir`, atomically (io/output_dir.h).
 // The manifest's `files` records each file's size and sha256. `progress`
-// ("writing", fraction) is polled between bands of rows, from any thread
+// ("writing", 1.0) is polled between bands of rows, from any thread
 // (one call at a time); false, or an exception from it, cancels the write
 // and leaves `outdir` as it was. Returns the manifest.
 nlohmann::json write_bake(const BakeResult& r, const std::filesystem::path& outdir, const BakeOptions& bo,
