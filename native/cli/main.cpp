@@ -1,8 +1,10 @@
 // iblbake CLI: parses arguments and calls bake_file(). No integration here.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
+#include <exception>
 
 #include <cmath>
 #include <cstdio>

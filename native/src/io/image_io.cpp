@@ -4,9 +4,12 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <mutex>
 #include <stdexcept>
+#include <system_error>
+#include <utility>
 
 #include "iblbake/math/color.h"
 #include "raw_pixels.h"
