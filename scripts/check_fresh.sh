@@ -197,10 +197,15 @@ main() {
     mount_in /var/cache/apt/archives --bind "$DEBS"
   fi
   mkdir -p "$RUN/root/iblbake"
-  COMMIT="$(git -C "$REPO" rev-parse --short HEAD)"
-  git -C "$REPO" archive --format=tar HEAD | tar -C "$RUN/root/iblbake" -xf -
-  if ! git -C "$REPO" diff --quiet HEAD 2>/dev/null; then
-    echo "check_fresh: note: uncommitted changes are not part of the check (it tests HEAD $COMMIT)"
+  if COMMIT="$(git -C "$REPO" rev-parse --short HEAD 2>/dev/null)"; then
+    git -C "$REPO" archive --format=tar HEAD | tar -C "$RUN/root/iblbake" -xf -
+    if ! git -C "$REPO" diff --quiet HEAD 2>/dev/null; then
+      echo "check_fresh: note: uncommitted changes are not part of the check (it tests HEAD $COMMIT)"
+    fi
+  else  # not a git checkout (an unpacked source tree): its files without build products
+    COMMIT="(no git)"
+    tar -C "$REPO" --exclude=./build --exclude='./build-*' --exclude=./out --exclude=./.git \
+      --exclude=__pycache__ --exclude=.pytest_cache -cf - . | tar -C "$RUN/root/iblbake" -xf -
   fi
   phase_end
 
