@@ -14,8 +14,8 @@
 #                        CHROOT_DIR/cache/SUITE-debs; apt still resolves, unpacks and
 #                        configures every package in the new chroot, only the download is saved)
 #   IBLBAKE_MIRROR       a Debian mirror URI instead of the host's
-# --keep DIR: leave the finished chroot at DIR (a ready development chroot, see
-# scripts/in_chroot.sh) instead of deleting it. --base-only: only make the
+# --keep DIR: leave the chroot at DIR when done, passed or not (a ready
+# development chroot, see scripts/in_chroot.sh) instead of deleting it. --base-only: only make the
 # cached base tarball.
 set -euo pipefail
 # All in one function: bash reads it whole before running it, so editing
@@ -122,7 +122,7 @@ main() {
     if [ -d "$RUN" ]; then
       if grep -q " $RUN/" /proc/mounts; then
         echo "check_fresh: mounts under $RUN remain; not deleting it" >&2
-      elif [ -n "$KEEP" ] && [ $rc -eq 0 ]; then
+      elif [ -n "$KEEP" ]; then  # kept whatever the outcome: a failure is easy to look into
         rm -rf "$KEEP"
         mkdir -p "$(dirname "$KEEP")"
         mv "$RUN" "$KEEP"
@@ -181,6 +181,7 @@ main() {
   rm -f "$RUN/etc/apt/sources.list.d/"*.sources 2>/dev/null || true
   cp -L /etc/resolv.conf "$RUN/etc/resolv.conf"
   cp /etc/hosts "$RUN/etc/hosts"
+  [ -e "$RUN/etc/mtab" ] || ln -s ../proc/self/mounts "$RUN/etc/mtab"  # as on an installed system
   mount_in() {  # mount_in TARGET mount-args...
     local target="$RUN$1"; shift
     mkdir -p "$target"
@@ -234,4 +235,4 @@ main() {
   phase_end
   echo "check_fresh $SUITE: PASS (HEAD $COMMIT)"
 }
-main "$@"
+main "$@"; exit $?  # one line: nothing after it is read, even if this file changes
