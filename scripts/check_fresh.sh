@@ -116,6 +116,7 @@ main() {
   cleanup() {
     local rc=$?
     local i
+    PHASE="clean up (unmount, delete)"; PHASE_T=$SECONDS
     for ((i = ${#MOUNTS[@]} - 1; i >= 0; i--)); do
       umount -R "${MOUNTS[$i]}" 2>/dev/null || umount -lR "${MOUNTS[$i]}" 2>/dev/null || true
     done
@@ -132,7 +133,10 @@ main() {
       fi
     fi
     rm -f "$OUTPUT"
-    [ ${#PHASES[@]} -eq 0 ] || report
+    if [ ${#PHASES[@]} -gt 0 ]; then
+      phase_end
+      report
+    fi
     exit $rc
   }
   trap cleanup EXIT
