@@ -30,6 +30,9 @@ PYTHON=(python3-dev python3-numpy pybind11-dev)
 TESTS=(libgtest-dev libgmock-dev python3-pytest)
 BENCH=(python3-matplotlib time)  # bench/run.sh: plots, peak memory
 BLENDER=(blender blender-data)
+# Blender 5.2's own extension manager (bl_pkg) imports cattrs and requests,
+# which Debian's blender package does not depend on.
+[ "$RELEASE" != sid ] || BLENDER+=(python3-cattr python3-requests)
 
 PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BENCH[@]}" "${BLENDER[@]}")
 

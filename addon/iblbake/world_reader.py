@@ -11,6 +11,7 @@ import tempfile
 import bpy
 import numpy as np
 
+from .compat import SUN_DISC_SKIES, uses_nodes
 from .core import native
 from .core.world import COLOR, IMAGE, RENDER, Mapping, WorldSource
 
@@ -58,7 +59,7 @@ def classify(world) -> WorldSource:
     name = world.name if world else None
     if world is None:
         return WorldSource(RENDER, "the scene has no world", world=None)
-    if not world.use_nodes or world.node_tree is None:
+    if not uses_nodes(world):
         return WorldSource(COLOR, world=name, color=tuple(world.color))
     out = _active_output(world.node_tree)
     if out is None:
@@ -181,7 +182,7 @@ def lighting_copy(world):
     copy.cycles_visibility.camera = True
     if world.cycles_visibility.camera is False:
         notes.append("camera visibility of the world turned on for the render")
-    if copy.use_nodes and copy.node_tree is not None:
+    if uses_nodes(copy):
         nt = copy.node_tree
         for node in list(nt.nodes):
             if node.bl_idname != "ShaderNodeLightPath":
@@ -277,14 +278,14 @@ def read_world(scene, render_width: int, render_samples: int):
     return src, None
 
 
-# Nishita's sun is 0.545 degrees across by default: at 1024 pixels across
+# Nishita's (5.x: Single Scattering's) sun is 0.545 degrees across by default: at 1024 pixels across
 # (0.35 degrees each) it covers about two pixels, which 16 samples resolve.
 SUN_DISC_MIN_WIDTH = 1024
 
 
 def _has_sun_disc(world):
-    if world is None or not world.use_nodes or world.node_tree is None:
+    if world is None or not uses_nodes(world):
         return False
-    return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type == "NISHITA" and n.sun_disc and not n.mute
+    return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type in SUN_DISC_SKIES and n.sun_disc and not n.mute
                for n in world.node_tree.nodes)
 

@@ -58,6 +58,16 @@ def test_specular_mip0_matches_cycles_along_the_axes(case, rotation, strength, m
         np.testing.assert_allclose(baked, seen, atol=0.01 * strength, err_msg="direction %s" % (d,))
 
 
+def test_sun_disc_skies_get_the_wider_render_on_every_blender(case):
+    """A sky with a sun disc is rendered at least 1024 wide: Nishita's
+    sky, called Single Scattering from 5.0 on (and Multiple Scattering)."""
+    res, _ = case("sun_disc")
+    assert any(k.split()[0] != "HOSEK_WILKIE" for k in res), res  # this Blender has a sun-disc sky
+    for key, wider in res.items():
+        kind, disc = key.split()
+        assert wider == (disc == "True" and kind != "HOSEK_WILKIE"), key
+
+
 def test_sky_texture_world_is_rendered_by_cycles_then_baked(case):
     res, work = case("sky")
     assert res["error"] == "", res
