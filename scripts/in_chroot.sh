@@ -4,8 +4,8 @@
 # installed), with host folders bind-mounted at the same paths inside:
 #   bash scripts/in_chroot.sh [-b DIR]... [-e VAR=VALUE]... CHROOT CMD [ARGS...]
 # CHROOT is a folder, or a suite name meaning $IBLBAKE_CHROOT_DIR/SUITE-dev
-# (default folder /var/tmp/iblbake-chroots). -b binds a host folder (default:
-# the git checkout holding the current folder, else the current folder); the
+# (default folder /var/tmp/iblbake-chroots). The git checkout holding the
+# current folder (else the current folder) is bound, and each -b DIR too; the
 # command runs in the current folder's path. Mounts (/proc, /sys, /dev and the
 # binds) live in a private mount namespace: they vanish when the command ends,
 # however it ends, and several commands may use one chroot at once.
@@ -32,9 +32,7 @@ main() {
   [ "$(id -u)" -eq 0 ] || { echo "in_chroot: needs root (chroot, mounts)" >&2; exit 1; }
   root="$(realpath "$root")"
   cwd="$(pwd)"
-  if [ ${#binds[@]} -eq 0 ]; then
-    binds=("$(git -C "$cwd" rev-parse --show-toplevel 2>/dev/null || echo "$cwd")")
-  fi
+  binds=("$(git -C "$cwd" rev-parse --show-toplevel 2>/dev/null || echo "$cwd")" "${binds[@]}")
   for d in "${binds[@]}"; do
     case "$d" in /|/proc*|/sys*|/dev*) echo "in_chroot: will not bind $d" >&2; exit 1 ;; esac
   done
