@@ -68,7 +68,14 @@ def parse_args(argv):
     p.add_argument("--no-lut", action="store_true")
     p.add_argument("--no-auto-skip", action="store_true", help="bake everything, whatever the materials use")
     p.add_argument("--force", action="store_true", help="bake even when nothing changed since the last bake")
-    return p.parse_args(argv)
+    p.add_argument("--preset", action="append", metavar="NAME",
+                   help="engine preset, written into OUT/NAME (repeat or comma-separate): three, khronos, bevy, "
+                        "filament, babylon, unity, source; NAME:FORMAT picks a pixel format (docs/export.md). "
+                        "Replaces the presets chosen in the scene")
+    args = p.parse_args(argv)
+    if args.preset is not None:
+        args.preset = [n.strip() for item in args.preset for n in item.split(",") if n.strip()]
+    return args
 
 
 def load_addon():
@@ -140,8 +147,9 @@ def bake_scene(args, out_dir: str, image=None):
     if image is not None:
         scene.world = hdri_world(image, args.strength, args.rotation_z)
     configure(scene, args, out_dir, image is not None)
+    override = {} if args.preset is None else {"override_presets": True, "presets": ",".join(args.preset)}
     with bpy.context.temp_override(scene=scene):
-        result = bpy.ops.iblbake.bake()
+        result = bpy.ops.iblbake.bake(**override)
     if "FINISHED" not in result:
         raise RuntimeError(scene.iblbake.last_error or "the bake did not finish")
     print("iblbake: %s" % scene.iblbake.last_status, flush=True)

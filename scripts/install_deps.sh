@@ -33,8 +33,16 @@ BLENDER=(blender blender-data)
 # Blender 5.2's own extension manager (bl_pkg) imports cattrs and requests,
 # which Debian's blender package does not depend on.
 [ "$RELEASE" != sid ] || BLENDER+=(python3-cattr python3-requests)
+GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
+EXPORT=(libzstd-dev python3-zstandard)
+# Engine tests: Debian's chromium (headless, SwiftShader); node and npm from
+# Debian unless an npm is already on PATH (nodesource's nodejs ships its own
+# npm and conflicts with Debian's npm package).
+BROWSER=(chromium)
+command -v npm >/dev/null 2>&1 || BROWSER+=(nodejs npm)
 
-PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BENCH[@]}" "${BLENDER[@]}")
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BENCH[@]}" "${BLENDER[@]}" "${GUI[@]}"
+          "${EXPORT[@]}" "${BROWSER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -25,11 +25,13 @@ except ImportError:  # iblbake.core used outside Blender (tests, pipelines): not
 if bpy is not None:
     if "operators" in locals():  # F8 / script reload: re-import the submodules
         import importlib
-        for _m in (core.settings, core.needs, core.world, core.native, core.pipeline, core.job, compat,  # noqa: F821
-                   properties, preferences, world_reader, scene_needs, operators, panel):  # noqa: F821
+        for _m in (core.settings, core.needs, core.world, core.native, core.pipeline, core.job,  # noqa: F821
+                   core.describe, compat, state, properties, preferences, world_reader, scene_needs,  # noqa: F821
+                   operators, panel):  # noqa: F821
             importlib.reload(_m)
     from . import core  # noqa: F401
-    from . import compat, operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
+    from .core import describe  # noqa: F401
+    from . import compat, state, operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
 
     _CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
     _HANDLERS = operators.HANDLERS + panel.HANDLERS
@@ -68,6 +70,7 @@ def unregister():
     for handlers, fn in reversed(_HANDLERS):
         if fn in handlers:
             handlers.remove(fn)
+    panel.free_previews()
     properties.unregister_props()
     for cls in reversed(_CLASSES):
         bpy.utils.unregister_class(cls)

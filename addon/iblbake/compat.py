@@ -6,10 +6,6 @@ import bpy
 # deprecated (reading or setting it warns) and always True.
 ALWAYS_NODES = bpy.app.version >= (5, 0, 0)
 
-# Sky Texture types with a sun disc: Nishita (3.x, 4.x), renamed Single
-# Scattering in 5.0, which also adds Multiple Scattering.
-SUN_DISC_SKIES = frozenset({"NISHITA", "SINGLE_SCATTERING", "MULTIPLE_SCATTERING"})
-
 
 def uses_nodes(idblock) -> bool:
     """Whether a world or material is shaded by its node tree."""

@@ -13,8 +13,35 @@
 #include <vector>
 
 #include "iblbake/bake/bake_file.h"
+#include "iblbake/export/export.h"
 
 namespace {
+// The presets table (docs/export.md), one block per preset.
+void print_presets() {
+    for (const auto& p : iblbake::presets_json()) {
+        std::printf("%-9s %s\n", p["name"].get<std::string>().c_str(), p["description"].get<std::string>().c_str());
+        std::string formats;
+        for (const auto& f : p["formats"]) formats += (formats.empty() ? "" : ", ") + f.get<std::string>();
+        std::printf("          %s %s (takes %s)%s, mirror %s, curve %s\n", p["container"].get<std::string>().c_str(),
+                    p["format"].get<std::string>().c_str(), formats.c_str(),
+                    p["supercompression"] == "zstd" ? " + zstd" : "", p["mirror"].get<std::string>().c_str(),
+                    p["curve"].get<std::string>().c_str());
+        if (!p["levels"].is_null()) {
+            std::string r;
+            char buf[32];
+            for (const auto& v : p["roughness_at_256"]) {
+                std::snprintf(buf, sizeof buf, "%s%.3f", r.empty() ? "" : " ", v.get<double>());
+                r += buf;
+            }
+            std::printf("          levels %s; roughness at face 256: %s\n", p["levels"].get<std::string>().c_str(),
+                        r.c_str());
+            std::printf("          %s\n", p["lod_formula"].get<std::string>().c_str());
+        }
+        std::printf("          diffuse: %s\n", p["diffuse_note"].get<std::string>().c_str());
+    }
+    std::printf("\nModifiers: NAME:FORMAT (one the preset takes), NAME:zstd / NAME:nozstd (KTX2).\n");
+}
+
 // SIGINT / SIGTERM ask the bake to stop at its next stage: it then throws
 // Cancelled, nothing is written and the staging folder is removed.
 std::atomic<bool> g_stop{false};
@@ -24,13 +51,16 @@ extern "C" void request_stop(int) { g_stop = true; }
 int main(int argc, char** argv) {
     using namespace iblbake;
     CLI::App app{"iblbake: bake image-based lighting (irradiance, GGX specular, BRDF LUT) from a lat-long HDRI"};
-    app.require_subcommand(1);
     app.set_version_flag("--version", "iblbake 0.1 (contract 1)");
+    bool list_presets = false;
+    app.add_flag("--list-presets", list_presets, "print the engine presets and exit");
+    app.require_subcommand(0, 1);
 
     BakeOptions bo;
     WriteOptions wo;
     std::string source, outdir, model = "karis", encoding = "srgb", method = "hierarchical";
-    std::vector<std::string> formats = {"exr"};
+    std::vector<std::string> formats = {"exr"}, presets;
+    std::string layout = "hcross";
     int samples = 0;
     bool no_irr = false, no_spec = false, no_lut = false, quiet = false, no_cache = false;
     std::string cache_dir = FileLutCache::default_dir().string();
@@ -59,11 +89,19 @@ int main(int argc, char** argv) {
     bake->add_option("--format", formats, "output formats: exr, png (repeat or comma-separate)")
         ->delimiter(',')
         ->capture_default_str();
+    bake->add_option("--preset", presets,
+                     "engine preset(s), each into OUTDIR/NAME (repeat or comma-separate; `iblbake presets` lists them): "
+                     "three, khronos, bevy, filament, babylon, unity, source; NAME:FORMAT picks a pixel format")
+        ->delimiter(',');
+    bake->add_option("--layout", layout, "layout of the cubes in OUTDIR: hcross, vcross, faces, latlong")
+        ->capture_default_str();
     bake->add_flag("--float32", wo.float32, "write crosses as full float instead of half");
     bake->add_option("--png-encoding", encoding, "PNG encoding: srgb (8-bit, clamped) or rgbm")
         ->capture_default_str();
     bake->add_option("--exposure", wo.exposure, "PNG exposure in stops")->capture_default_str();
     bake->add_option("--rgbm-range", wo.rgbm_range, "RGBM range")->capture_default_str();
+    bake->add_flag("--preview", wo.preview,
+                   "also write preview.png: irradiance, LUT, every specular level and spheres lit by the bake");
     bake->add_flag("--no-irradiance", no_irr, "skip the irradiance cube");
     bake->add_flag("--no-specular", no_spec, "skip the specular chain");
     bake->add_flag("--no-lut", no_lut, "skip the BRDF LUT");
@@ -76,6 +114,8 @@ int main(int argc, char** argv) {
     bake->add_option("--cache-dir", cache_dir, "where BRDF LUTs are cached for reuse")->capture_default_str();
     bake->add_flag("--no-cache", no_cache, "neither read nor write the LUT cache");
     bake->add_flag("-q,--quiet", quiet, "print nothing on success");
+
+    CLI::App* presets_cmd = app.add_subcommand("presets", "print the engine presets (docs/export.md)");
 
     try {
         app.parse(argc, argv);
@@ -90,8 +130,19 @@ int main(int argc, char** argv) {
         return 2;
     }
 
+    if (list_presets || presets_cmd->parsed()) {
+        print_presets();
+        return 0;
+    }
+    if (!bake->parsed()) {
+        std::cerr << "iblbake: error: a subcommand is required: bake or presets (see iblbake --help)\n";
+        return 2;
+    }
+
     try {
         bo.lut_model = lut_model_from_name(model);
+        wo.presets = parse_presets(presets);
+        wo.layout = layout_from_name(layout);
         bo.specular_method = specular_method_from_name(method);
         if (bake->count("--samples") && samples < 1) throw std::invalid_argument("--samples must be >= 1");
         if (samples > 0) {
@@ -123,6 +174,13 @@ int main(int argc, char** argv) {
             std::printf("baked %s -> %s in %.3f s (%zu specular levels, bad pixels: %llu)\n", source.c_str(),
                         outdir.c_str(), total, m["specular"].size(),
                         (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
+            if (m.contains("presets"))
+                for (const auto& [name, entry] : m["presets"].items()) {
+                    std::string files;
+                    for (const auto& [role, file] : entry["files"].items())
+                        files += (files.empty() ? "" : ", ") + name + "/" + file.get<std::string>();
+                    std::printf("  %-9s %s\n", name.c_str(), files.c_str());
+                }
         }
         return 0;
     } catch (const Cancelled& e) {

@@ -15,6 +15,7 @@
 #include "bindings.h"
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/bake/bake_file.h"
+#include "iblbake/export/export.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/output_dir.h"
 
@@ -98,7 +99,11 @@ Parsed parse_options(const pybind11::dict& kw) {
                 else if (f == "png") wo.png = true;
                 else value_error("unknown format '" + f + "' (expected 'exr' or 'png')");
             }
-        } else if (key == "float32") wo.float32 = as_bool();
+        } else if (key == "presets") {
+            if (pybind11::isinstance<pybind11::str>(v)) value_error("presets must be a list of preset names, e.g. ['three']");
+            wo.presets = parse_presets(get_as<std::vector<std::string>>(v, key, "a list of preset names"));
+        } else if (key == "layout") wo.layout = layout_from_name(as_str());
+        else if (key == "float32") wo.float32 = as_bool();
         else if (key == "png_encoding") {
             const std::string e = as_str();
             if (e == "srgb") wo.png_encoding = PngEncoding::Srgb;
@@ -106,6 +111,7 @@ Parsed parse_options(const pybind11::dict& kw) {
             else value_error("unknown png_encoding '" + e + "' (expected 'srgb' or 'rgbm')");
         } else if (key == "exposure") wo.exposure = float(as_float());
         else if (key == "rgbm_range") wo.rgbm_range = float(as_float());
+        else if (key == "preview") wo.preview = as_bool();
         else if (key == "progress") {
             if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
             progress = pybind11::reinterpret_borrow<pybind11::object>(v);
@@ -125,6 +131,8 @@ Parsed parse_options(const pybind11::dict& kw) {
         else value_error("unknown option '" + key + "'");
     }
     bo.validate();
+    plan_presets(bo, wo.presets);  // a preset the options cannot serve fails here
+    bo = with_exports(bo, wo);     // the levels and files the presets need from the bake
     out.progress = wrap_progress(progress);
     if (!lut_cache_dir.empty()) out.cache.emplace(lut_cache_dir);
     return out;
@@ -173,7 +181,10 @@ pybind11::dict result_dict(const BakeResult& r) {
 // bake() and bake_constant()'s out_dir: "" for none; checked with the GIL
 // held, before any work, so that a refused folder costs nothing.
 std::string checked_out_dir(const pybind11::object& out_dir, const Parsed& p) {
-    if (out_dir.is_none()) return {};
+    if (out_dir.is_none()) {
+        if (!p.wo.presets.empty()) value_error("presets write files: give an out_dir");
+        return {};
+    }
     const std::string out = pybind11::str(out_dir);
     if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
     p.wo.validate();
@@ -242,11 +253,12 @@ eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
 specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
 lut_row_nodes (0: integrate every LUT texel; k >= 4: k integrals per row, spline between),
 hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
-rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path,
+rgbm_range, preview (also write preview.png, a contact sheet), progress (callable(stage, fraction) -> bool; False cancels), source_path,
 source_sha256 (the manifest's hash, when the caller has it already; else a written bake hashes the file
 or the pixels, and an unwritten one leaves it null),
 lut_cache_dir (a folder where BRDF LUTs are reused across bakes; none by default), manifest_extra (a dict of
-more top-level manifest keys).
+more top-level manifest keys), presets (engine presets, e.g. ['three', 'khronos:rgba32f']: each writes
+out_dir/<name>/, see presets()), layout ('hcross', 'vcross', 'faces', 'latlong').
 Raises ValueError on a wrong dtype, shape or option, or on bad pixels with strict=True.)doc");
 
     m.def(
@@ -264,6 +276,12 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
         },
         pybind11::arg("rgb"), pybind11::arg("out_dir") = pybind11::none(),
         "Bake a constant world of radiance rgb in closed form (no integration); same options and result as bake().");
+
+    m.def(
+        "presets", [] { return json_to_py(presets_json()); },
+        "The engine presets (docs/export.md) as a list of dicts: name, description, container, format, formats, "
+        "supercompression, mirror, curve, lod_formula, levels, smallest, roughness_at_256, diffuse, diffuse_note, sh, "
+        "lut, notes.");
 
     m.def("default_lut_cache_dir", [] { return FileLutCache::default_dir().string(); },
           "The CLI's LUT cache folder: $IBLBAKE_CACHE_DIR, else $XDG_CACHE_HOME/iblbake, else ~/.cache/iblbake.");

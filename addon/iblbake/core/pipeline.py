@@ -30,6 +30,7 @@ class BakeReport:
     content_hash: str
     manifest: dict = field(default_factory=dict)
     seconds: float = 0.0
+    thumbnail: Optional[object] = None  # the preview sheet, small, for the panel (set by the UI's job)
 
     def summary(self) -> str:
         if self.status == "unchanged":
@@ -37,9 +38,10 @@ class BakeReport:
                 self.out_dir, self.content_hash[:12])
         spec = self.manifest.get("specular") or []
         levels = ("specular levels %d-%d" % (spec[0]["level"], spec[-1]["level"])) if spec else "no specular"
-        return "Baked in %.2f s into %s (%s%s%s)" % (
+        presets = sorted(self.manifest.get("presets") or {})
+        return "Baked in %.2f s into %s (%s%s%s%s)" % (
             self.seconds, self.out_dir, "irradiance, " if self.manifest.get("irradiance") else "", levels,
-            ", LUT" if self.manifest.get("brdf_lut") else "")
+            ", LUT" if self.manifest.get("brdf_lut") else "", ", for " + ", ".join(presets) if presets else "")
 
 
 def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
@@ -50,9 +52,12 @@ def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
                 formats=list(settings.formats), png_encoding=settings.png_encoding,
                 exposure=float(settings.exposure), float32=settings.float32, eps=float(settings.eps),
                 threads=settings.threads, irradiance=settings.irradiance, specular=settings.specular,
-                lut=settings.lut)
+                lut=settings.lut, presets=list(settings.presets))
+    if settings.preview:
+        opts["preview"] = True
     reasons = {}
-    if settings.auto_skip and needs is not None and needs.analysed:
+    # Engine presets need every level of their own chain: nothing is skipped for them.
+    if settings.auto_skip and needs is not None and needs.analysed and not settings.presets:
         for key, out in (("irradiance", "irradiance"), ("specular", "specular"), ("lut", "brdf_lut")):
             if opts[key] and not getattr(needs, key):
                 opts[key] = False
@@ -107,6 +112,8 @@ def existing_hash(out_dir: str) -> Optional[str]:
     for key in ("irradiance", "brdf_lut"):
         if m.get(key):
             files.append(m[key]["file"])
+    for preset in (m.get("presets") or {}).values():  # each engine preset's folder
+        files.extend(os.path.join(preset["dir"], f) for f in preset["files"].values())
     if not all(os.path.isfile(os.path.join(out_dir, f)) for f in files):
         return None
     return (m.get("blender") or {}).get("content_hash")
@@ -129,9 +136,9 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         raise BakeError("no pixels to bake")
     out_dir = os.path.abspath(os.path.expanduser(settings.out_dir))
     opts = native_options(settings, needs)
-    if not (opts["irradiance"] or opts["specular"] or opts["lut"]):
+    if not (opts["irradiance"] or opts["specular"] or opts["lut"] or opts["presets"]):
         why = "; ".join(sorted(set((opts.get("skip_reasons") or {}).values()))) or "every output is switched off"
-        raise BakeError("nothing to bake (%s): switch Skip Unused off to bake anyway" % why)
+        raise BakeError("nothing to bake (%s): choose Bake For: Every Roughness to bake anyway" % why)
     parent = os.path.dirname(out_dir)
     while parent and not os.path.isdir(parent):
         parent = os.path.dirname(parent)
@@ -139,7 +146,11 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         os.rmdir(tempfile.mkdtemp(prefix=".iblbake-probe-", dir=parent or "."))
     except OSError as e:
         raise BakeError("cannot write into %s: %s" % (parent or ".", e.strerror or e)) from e
+    if progress is not None and progress("hashing", 0.0) is False:
+        raise core.Cancelled()
+    hash_start = time.perf_counter()
     pixel_digest = pixels_sha256(pixels) if pixels is not None else None
+    hash_seconds = time.perf_counter() - hash_start
     digest = content_hash(source, pixel_digest, opts, settings, core.__version__)
     if not settings.force and existing_hash(out_dir) == digest:
         return BakeReport("unchanged", out_dir, digest)
@@ -149,6 +160,8 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
     blender["needs"] = needs.to_json() if needs is not None else None
     blender["auto_skip"] = settings.auto_skip
     blender["content_hash"] = digest
+    if "waited" in blender:  # the stages before the native bake, as the UI's job ran them
+        blender["waited"] = dict(blender["waited"], hash_pixels=round(hash_seconds, 4))
     opts["manifest_extra"] = {"blender": blender}
     cache = settings.lut_cache_dir or core.default_lut_cache_dir()
     if cache:

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 
 #include "iblbake/bake/lut_cache.h"
@@ -29,15 +30,88 @@ int pow2_ceil(double x) {
     return p;
 }
 
+// The specular levels a bake integrates: SPEC's (first_level .. last_level)
+// and the extra ones engine presets asked for. Levels at r = 0 come first:
+// they read the source itself, which an owned source may free afterwards.
+struct LevelJob {
+    int face_size;
+    double roughness;
+    int spec_level;  // -1: an extra level
+};
+std::vector<LevelJob> level_jobs(const BakeOptions& o) {
+    std::vector<LevelJob> jobs;
+    if (o.specular)
+        for (int m = o.first_level; m <= o.resolved_last_level(); ++m)
+            jobs.push_back({std::max(1, o.face_size >> m), o.mip_roughness(m), m});
+    for (const SpecularLevelRequest& e : o.extra.specular) jobs.push_back({e.face_size, e.roughness, -1});
+    std::stable_sort(jobs.begin(), jobs.end(),
+                     [](const LevelJob& a, const LevelJob& b) { return (a.roughness > 0.0) < (b.roughness > 0.0); });
+    return jobs;
+}
+
+// Which levels are integrated together (specular_hierarchical_group): at a
+// face size where engine presets asked for extra levels, the levels of that
+// face (SPEC's among them), in order of roughness, up to four at a time from
+// the smallest and within a factor 1.6 of it (the narrowest lobe's traversal
+// serves them all, on finer bins than the others need). A face with no extra
+// level keeps SPEC's level to itself, so a bake without presets is unchanged;
+// under FIS every level is integrated alone. The groups come in the order of
+// their first job.
+std::vector<std::vector<size_t>> level_groups(const std::vector<LevelJob>& jobs, bool hierarchical) {
+    std::vector<std::vector<size_t>> groups;
+    std::vector<char> grouped(jobs.size(), 0);
+    auto has_extra = [&](int face) {
+        for (const LevelJob& j : jobs)
+            if (j.spec_level < 0 && j.roughness > 0.0 && j.face_size == face) return true;
+        return false;
+    };
+    auto candidate = [&](const LevelJob& j) { return hierarchical && j.roughness > 0.0 && has_extra(j.face_size); };
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        if (grouped[i] || !candidate(jobs[i])) continue;
+        // Every candidate of this face, by roughness, split greedily.
+        std::vector<size_t> c;
+        for (size_t k = 0; k < jobs.size(); ++k)
+            if (candidate(jobs[k]) && jobs[k].face_size == jobs[i].face_size) c.push_back(k);
+        std::stable_sort(c.begin(), c.end(),
+                         [&](size_t x, size_t y) { return jobs[x].roughness < jobs[y].roughness; });
+        std::vector<size_t> g;
+        std::vector<double> r;
+        for (size_t k : c) {
+            r.push_back(jobs[k].roughness);
+            if (!g.empty() && (g.size() == 4 || jobs[k].roughness > 1.6 * jobs[g[0]].roughness ||
+                               !specular_group_safe(r))) {
+                groups.push_back(g);
+                g.clear();
+                r = {jobs[k].roughness};
+            }
+            g.push_back(k);
+        }
+        groups.push_back(g);
+        for (size_t k : c) grouped[k] = 1;
+    }
+    for (size_t i = 0; i < jobs.size(); ++i)
+        if (!grouped[i]) groups.push_back({i});
+    std::sort(groups.begin(), groups.end(), [](const std::vector<size_t>& a, const std::vector<size_t>& b) {
+        return *std::min_element(a.begin(), a.end()) < *std::min_element(b.begin(), b.end());
+    });
+    return groups;
+}
+
+// The smallest positive roughness among the levels baked (0 when none is).
+double smallest_positive_roughness(const std::vector<LevelJob>& jobs) {
+    double r = 0.0;
+    for (const LevelJob& j : jobs)
+        if (j.roughness > 0.0 && (r == 0.0 || j.roughness < r)) r = j.roughness;
+    return r;
+}
+
 // Finest specular bins: small enough for the narrowest lobe (radius <= eps *
 // 2 alpha_1, about 2.2 / (eps alpha_1) bins across), a power of two, at most
 // 4096 across (the reduction holds 128 bytes a bin while it sums: 1 GB there);
 // chains whose first roughness is below about 0.05 use coarser bins than eps asks.
 int finest_bin_width(const BakeOptions& o) {
-    const int mips = o.resolved_mip_count();
-    if (!o.specular || mips < 2 || o.specular_method != SpecularMethod::Hierarchical || o.resolved_last_level() < 1)
-        return 2;
-    const double r1 = o.mip_roughness(std::max(1, o.first_level)), a1 = r1 * r1;
+    const double r1 = smallest_positive_roughness(level_jobs(o)), a1 = r1 * r1;
+    if (o.specular_method != SpecularMethod::Hierarchical || r1 <= 0.0) return 2;
     return std::clamp(pow2_ceil(2.2 / (o.hierarchical.eps * a1)), 2, 4096);
 }
 
@@ -82,6 +156,25 @@ void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     if (!r.lut) {
         r.lut = bake_brdf_lut(o.lut_size, o.lut_model, o.lut_quality);
         if (lut_cache) lut_cache->store(key, *r.lut);
+    }
+}
+
+// The LUTs of the extra models (engine presets), from the cache when there.
+void extra_lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
+    for (LutModel model : o.extra.luts) {
+        if (r.lut && model == o.lut_model) continue;  // the SPEC LUT serves
+        bool have = false;
+        for (const auto& [m, img] : r.extra_luts) have = have || m == model;
+        if (have) continue;
+        const std::string key = lut_cache_key(o.lut_size, model, o.lut_quality);
+        std::optional<Image> lut;
+        if (lut_cache) lut = lut_cache->load(key);
+        if (lut && (lut->width != o.lut_size || lut->height != o.lut_size)) lut.reset();
+        if (!lut) {
+            lut = bake_brdf_lut(o.lut_size, model, o.lut_quality);
+            if (lut_cache) lut_cache->store(key, *lut);
+        }
+        r.extra_luts.emplace_back(model, std::move(*lut));
     }
 }
 
@@ -147,6 +240,10 @@ void BakeOptions::validate() const {
     check(first_level >= 0 && first_level < mips, "first_level must be in 0..mip_count-1");
     check(last_level == -1 || (last_level >= first_level && last_level < mips),
           "last_level must be -1 (the last) or in first_level..mip_count-1");
+    for (const SpecularLevelRequest& e : extra.specular)
+        check(e.face_size >= 1 && e.face_size <= 4096 && std::isfinite(e.roughness) && e.roughness >= 0.0 &&
+                  e.roughness <= 1.0,
+              "extra specular levels need a face size in 1..4096 and a roughness in 0..1");
 }
 
 int BakeOptions::resolved_last_level() const { return last_level < 0 ? resolved_mip_count() - 1 : last_level; }
@@ -179,8 +276,9 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         };
         const int mips = o.resolved_mip_count();
         // Rough share of the work per stage, for the progress bar.
-        const double w_irr = o.irradiance ? 0.15 : 0.0, w_lut = o.lut ? 0.25 : 0.0;
-        const double w_spec = o.specular ? 0.6 : 0.0, w_total = 0.05 + w_irr + w_spec + w_lut;
+        const double w_irr = o.irradiance || o.extra.irradiance ? 0.15 : 0.0, w_lut = o.lut ? 0.25 : 0.0;
+        const double w_spec = o.specular || !o.extra.specular.empty() ? 0.6 : 0.0;
+        const double w_total = 0.05 + w_irr + w_spec + w_lut;
         double done = 0.0;
         auto advance = [&](double w) { done += w / w_total; };
 
@@ -233,8 +331,10 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
         clock.done("sh9");
 
-        const bool need_split =
-            o.irradiance || (o.specular && mips > 1 && o.specular_method == SpecularMethod::Fis);
+        const std::vector<LevelJob> jobs = level_jobs(o);
+        const double r1 = smallest_positive_roughness(jobs);  // 0: no level needs the integrators
+        const bool want_irr = o.irradiance || o.extra.irradiance;
+        const bool need_split = want_irr || (r1 > 0.0 && o.specular_method == SpecularMethod::Fis);
         HotSplit split;
         if (need_split) {
             split = split_hot(integrand, o.hot_threshold, o.max_hot);
@@ -250,8 +350,8 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         // The hierarchical specular's bin tree, built first: its coarser exact
         // bins are the irradiance's too, which then needs no pass of its own.
         const bool fis = o.specular_method == SpecularMethod::Fis;
-        const bool need_tree = o.specular && !fis && mips > 1 && o.resolved_last_level() > 0;
-        const bool irr_from_tree = o.irradiance && need_tree && o.irradiance_bins <= finest_bins / 4;
+        const bool need_tree = !fis && r1 > 0.0;
+        const bool irr_from_tree = want_irr && need_tree && o.irradiance_bins <= finest_bins / 4;
         BinTree tree;
         std::vector<Bin> irr_bins;
         if (need_tree) {
@@ -261,7 +361,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             clock.done("bin_tree");
         }
 
-        if (o.irradiance) {
+        if (want_irr) {
             report("irradiance", done);
             const int bw = o.irradiance_bins, bh = o.irradiance_bins / 2;
             if (irr_from_tree) remove_hot(irr_bins, bw, bh, integrand.width, integrand.height, split);
@@ -270,20 +370,22 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             for (const RadiancePoint& p : split.hot) cloud.add(p.mean_dir, p.power);
             Cubemap irr(o.irradiance_size);
             irradiance_convolve(irr, cloud, o.irradiance_exact_face);
-            r.irradiance = std::move(irr);
+            (o.irradiance ? r.irradiance : r.extra_irradiance) = std::move(irr);
             clock.done("irradiance");
             advance(w_irr);
-        } else {
-            skip("irradiance");
         }
+        if (!o.irradiance) skip("irradiance");
 
-        if (o.specular) {
+        if (!jobs.empty()) {
             report("specular", done);
             CubePyramid pyramid;
-            if (mips > 1 && fis) {
+            if (fis && r1 > 0.0) {
                 // The rest cube must resolve the narrowest lobe (about alpha_1
                 // radians wide) but need not be finer than the source.
-                const double r1 = o.mip_roughness(1), a1 = r1 * r1;
+                double rf = mips > 1 ? o.mip_roughness(1) : 1.0;
+                for (const SpecularLevelRequest& e : o.extra.specular)
+                    if (e.roughness > 0.0) rf = std::min(rf, e.roughness);
+                const double a1 = rf * rf;
                 int base = o.specular_base_face;
                 if (base == 0)
                     base = std::clamp(pow2_ceil(4.0 / a1), 8, std::clamp(pow2_ceil(integrand.width / 4.0), 8, 2048));
@@ -294,27 +396,85 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
             }
-            const int first = o.first_level, last = o.resolved_last_level();
-            for (int m = first; m <= last; ++m) {
-                const int n = std::max(1, o.face_size >> m);
-                const double rough = o.mip_roughness(m);
+            const std::string method_h =
+                "hierarchical kernel sum over exact bins (eps " + std::to_string(o.hierarchical.eps).substr(0, 4) + ")";
+            auto finish = [&](const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method,
+                              bool norm_cached) {
+                if (job.spec_level >= 0) {
+                    r.specular.push_back(std::move(level));
+                    r.specular_normaliser_from_cache.push_back(norm_cached);
+                    r.specular_levels.push_back(job.spec_level);
+                    r.roughness.push_back(job.roughness);
+                    r.samples_per_texel.push_back(samples);
+                    r.specular_methods.push_back(method);
+                } else {
+                    r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method,
+                                                norm_cached});
+                }
+                advance(w_spec / double(jobs.size()));
+                report("specular", done);
+            };
+            for (const std::vector<size_t>& group : level_groups(jobs, !fis)) {
+                const LevelJob& job = jobs[group[0]];
+                const int n = job.face_size;
+                const double rough = job.roughness;
                 if (rough > 0.0 && !fis && owned) {
-                    // Past mip 0 only the tree is read: a source this bake owns
-                    // (the CLI's, or a cleaned copy) is freed before the rest
-                    // of the chain is made and written.
+                    // Past the r = 0 levels only the tree is read: a source this
+                    // bake owns (the CLI's, or a cleaned copy) is freed (or kept
+                    // for an export that asked for it) before the rest of the
+                    // chain is made and written.
+                    if (o.extra.keep_source) r.source = std::move(*owned);
                     std::vector<float>().swap(owned->pixels);
                     owned = nullptr;
                 }
+                const size_t texels = size_t(6) * n * n;
+                if (group.size() > 1) {
+                    // Levels at nearby roughness in one pass; their normalisers
+                    // are cached under a key naming the group.
+                    std::string members = "-group";
+                    for (size_t g : group) {
+                        char buf[32];
+                        std::snprintf(buf, sizeof buf, "-%.17g", jobs[g].roughness);
+                        members += buf;
+                    }
+                    std::vector<Cubemap> levels(group.size(), Cubemap(n));
+                    std::vector<std::vector<float>> norms(group.size());
+                    std::vector<std::string> keys;
+                    std::vector<SpecularGroupTarget> targets;
+                    for (size_t k = 0; k < group.size(); ++k) {
+                        keys.push_back(specular_normaliser_key(n, jobs[group[k]].roughness, o.hierarchical.eps,
+                                                               o.hierarchical.tile, finest_bins) +
+                                       members);
+                        if (lut_cache) {
+                            if (auto cached = lut_cache->load_floats(keys[k], texels)) norms[k] = std::move(*cached);
+                        }
+                    }
+                    std::vector<char> cached(group.size());
+                    for (size_t k = 0; k < group.size(); ++k) {
+                        cached[k] = norms[k].size() == texels;
+                        targets.push_back({&levels[k], jobs[group[k]].roughness, &norms[k]});
+                    }
+                    const double bins = specular_hierarchical_group(targets, tree, o.hierarchical);
+                    std::string with;
+                    for (size_t g : group) with += (with.empty() ? "" : ", ") + std::to_string(jobs[g].roughness);
+                    for (size_t k = 0; k < group.size(); ++k) {
+                        if (lut_cache && !cached[k]) lut_cache->store_floats(keys[k], norms[k]);
+                        finish(jobs[group[k]], std::move(levels[k]), size_t(std::lround(bins)),
+                               method_h + ", one pass for roughness " + with, cached[k] != 0);
+                    }
+                    continue;
+                }
                 Cubemap level(n);
                 bool norm_cached = false;
+                size_t samples = 0;
+                std::string method;
                 if (rough == 0.0) {
                     specular_mirror(level, source);
-                    r.samples_per_texel.push_back(1);
-                    r.specular_methods.push_back("bilinear source lookup");
+                    samples = 1;
+                    method = "bilinear source lookup";
                 } else if (!fis) {
                     // The level's normaliser from the cache when there, else made and kept.
                     std::vector<float> norm;
-                    const size_t texels = size_t(6) * n * n;
                     const std::string key = specular_normaliser_key(n, rough, o.hierarchical.eps,
                                                                     o.hierarchical.tile, finest_bins);
                     if (lut_cache) {
@@ -323,26 +483,19 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     norm_cached = norm.size() == texels;
                     const double bins = specular_hierarchical(level, tree, rough, o.hierarchical, &norm);
                     if (lut_cache && !norm_cached) lut_cache->store_floats(key, norm);
-                    r.samples_per_texel.push_back(size_t(std::lround(bins)));
-                    r.specular_methods.push_back("hierarchical kernel sum over exact bins (eps " +
-                                                 std::to_string(o.hierarchical.eps).substr(0, 4) + ")");
+                    samples = size_t(std::lround(bins));
+                    method = method_h;
                 } else {
-                    const size_t samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality);
-                    r.samples_per_texel.push_back(samples + split.hot.size());
-                    r.specular_methods.push_back("filtered importance sampling + hot texels");
+                    samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality) +
+                              split.hot.size();
+                    method = "filtered importance sampling + hot texels";
                 }
-                r.specular.push_back(std::move(level));
-                r.specular_normaliser_from_cache.push_back(norm_cached);
-                r.specular_levels.push_back(m);
-                r.roughness.push_back(rough);
-                advance(w_spec / (last - first + 1));
-                report("specular", done);
+                finish(job, std::move(level), samples, method, norm_cached);
             }
-            skip_levels(r, o);
             clock.done("specular");
-        } else {
-            skip("specular");
         }
+        if (o.specular) skip_levels(r, o);
+        else skip("specular");
 
         if (o.lut) {
             report("brdf_lut", done);
@@ -352,12 +505,23 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         } else {
             skip("brdf_lut");
         }
+        extra_lut_stage(r, o, lut_cache);
+        // A source kept for an export that was not moved out above (not owned,
+        // or never freed) is copied from the cleaned view.
+        if (o.extra.keep_source && !r.source) {
+            r.source = Image(source.width, source.height);
+            for (int y = 0; y < source.height; ++y)
+                std::copy_n(source.at(0, y), size_t(source.width) * 3, r.source->at(0, y));
+        }
         if (scale_exp != 0) {
             auto rescale = [&](std::vector<float>& px) {
                 for (float& v : px) v = std::ldexp(v, scale_exp);
             };
             if (r.irradiance) rescale(r.irradiance->pixels);
+            if (r.extra_irradiance) rescale(r.extra_irradiance->pixels);
+            if (r.source) rescale(r.source->pixels);
             for (Cubemap& c : r.specular) rescale(c.pixels);
+            for (ExtraSpecularLevel& e : r.extra_specular) rescale(e.cube.pixels);
             for (auto& ch : r.sh9)
                 for (double& v : ch) v = std::ldexp(v, scale_exp);
             for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
@@ -409,6 +573,11 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         }
         if (o.irradiance) r.irradiance = fill(o.irradiance_size);
         else r.skipped.push_back(skip_reason(o, "irradiance", "disabled by option"));
+        if (!o.irradiance && o.extra.irradiance) r.extra_irradiance = fill(o.irradiance_size);
+        for (const SpecularLevelRequest& e : o.extra.specular)
+            r.extra_specular.push_back({e.face_size, e.roughness, fill(e.face_size), 0, "closed form (constant world)",
+                                        false});
+        if (o.extra.keep_source) r.source = one;
         if (o.specular) {
             for (int m = o.first_level; m <= o.resolved_last_level(); ++m) {
                 r.specular.push_back(fill(std::max(1, o.face_size >> m)));
@@ -429,6 +598,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         } else {
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
+        extra_lut_stage(r, o, lut_cache);
         report("done", 1.0);
         return r;
     });

@@ -5,11 +5,18 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <memory>
 
+#include "iblbake/export/export.h"
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/image/encode.h"
+#include "iblbake/image/preview.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
+
+#ifndef IBLBAKE_VERSION
+#define IBLBAKE_VERSION "dev"
+#endif
 
 namespace iblbake {
 
@@ -22,39 +29,99 @@ constexpr float kHalfMax = 65504.0f;
 
 const char* png_encoding_name(PngEncoding e) { return e == PngEncoding::Srgb ? "srgb8" : "rgbm"; }
 
-// Writes one cube as a cross (EXR and/or PNG) and records encodings.
+// One image of a cube in the chosen layout: its file stem, size and rows.
+struct LayoutImage {
+    std::string stem;
+    int width, height;
+    std::function<void(int y0, int rows, float* out)> rows;
+};
+
+std::vector<LayoutImage> layout_images(const std::string& stem, const Cubemap& cube, CubeLayout layout,
+                                       std::shared_ptr<const BorderedCube>& bordered) {
+    const int n = cube.size;
+    switch (layout) {
+        case CubeLayout::HCross:
+            return {{stem, 4 * n, 3 * n, [&cube](int y0, int r, float* o) { hcross_rgba_rows(cube, y0, r, o); }}};
+        case CubeLayout::VCross:
+            return {{stem, 3 * n, 4 * n, [&cube](int y0, int r, float* o) { vcross_rgba_rows(cube, y0, r, o); }}};
+        case CubeLayout::Faces: {
+            std::vector<LayoutImage> out;
+            for (int f = 0; f < 6; ++f)
+                out.push_back({stem + "_" + kFaceSuffixes[f], n, n,
+                               [&cube, f](int y0, int r, float* o) { face_rgba_rows(cube, f, y0, r, o); }});
+            return out;
+        }
+        case CubeLayout::LatLong: {
+            bordered = std::make_shared<const BorderedCube>(BorderedCube::from_cube(cube));
+            const BorderedCube* b = bordered.get();
+            const int w = 4 * n, h = 2 * n;
+            return {{stem, w, h, [b, w, h](int y0, int r, float* o) { latlong_rgba_rows(*b, w, h, y0, r, o); }}};
+        }
+    }
+    return {};
+}
+
+// Writes one cube in the layout (EXR and/or PNG) and records encodings.
 void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cube, const WriteOptions& wo,
                  json& encodings) {
-    const int w = 4 * cube.size, h = 3 * cube.size;
-    if (wo.exr) {
-        // Streamed in bands of the cross: no whole-cross buffer.
-        const bool full = wo.float32 || exceeds_half(cube.pixels);
-        io::write_exr_rows((dir / (stem + ".exr")).string(), w, h, 4, full ? io::ExrPixel::Float : io::ExrPixel::Half,
-                           [&](int y0, int rows, float* out) { hcross_rgba_rows(cube, y0, rows, out); });
-        encodings[stem + ".exr"] = full ? "float" : "half";
-    }
-    if (wo.png) {  // streamed in bands too, each encoded as it goes
-        io::write_png8_rows((dir / (stem + ".png")).string(), w, h, 4, [&](int y0, int rows, float* out) {
-            hcross_rgba_rows(cube, y0, rows, out);
-            const size_t n = size_t(rows) * w * 4;
-            if (wo.png_encoding == PngEncoding::Srgb) encode_srgb_in_place(out, n, wo.exposure);
-            else encode_rgbm_in_place(out, n, wo.exposure, wo.rgbm_range);
-        });
-        encodings[stem + ".png"] = png_encoding_name(wo.png_encoding);
+    std::shared_ptr<const BorderedCube> bordered;
+    // A lat-long resamples the cube bilinearly: it stays within the cube's range.
+    const bool full = wo.float32 || exceeds_half(cube.pixels);
+    for (const LayoutImage& img : layout_images(stem, cube, wo.layout, bordered)) {
+        if (wo.exr) {
+            // Streamed in bands: no whole-image buffer.
+            io::write_exr_rows((dir / (img.stem + ".exr")).string(), img.width, img.height, 4,
+                               full ? io::ExrPixel::Float : io::ExrPixel::Half, img.rows);
+            encodings[img.stem + ".exr"] = full ? "float" : "half";
+        }
+        if (wo.png) {  // streamed in bands too, each encoded as it goes
+            const int w = img.width;
+            io::write_png8_rows((dir / (img.stem + ".png")).string(), img.width, img.height, 4,
+                                [&](int y0, int rows, float* out) {
+                                    img.rows(y0, rows, out);
+                                    const size_t n = size_t(rows) * w * 4;
+                                    if (wo.png_encoding == PngEncoding::Srgb) encode_srgb_in_place(out, n, wo.exposure);
+                                    else encode_rgbm_in_place(out, n, wo.exposure, wo.rgbm_range);
+                                });
+            encodings[img.stem + ".png"] = png_encoding_name(wo.png_encoding);
+        }
     }
 }
 
+// The file a manifest entry names (the +X face's for the faces layout).
 std::string primary_file(const std::string& stem, const WriteOptions& wo) {
-    return stem + (wo.exr ? ".exr" : ".png");
+    return stem + (wo.layout == CubeLayout::Faces ? "_px" : "") + (wo.exr ? ".exr" : ".png");
+}
+
+// Every file of a cube entry (faces layout: six).
+json all_files(const std::string& stem, const WriteOptions& wo) {
+    json files = json::array();
+    const std::string ext = wo.exr ? ".exr" : ".png";
+    if (wo.layout != CubeLayout::Faces) return json::array({stem + ext});
+    for (const char* f : kFaceSuffixes) files.push_back(stem + "_" + f + ext);
+    return files;
 }
 
 }  // namespace
+
+void write_preview(const std::string& path, const BakeResult& r) {
+    const Image sheet = render_preview(r);
+    std::vector<float> rgba(size_t(sheet.width) * sheet.height * 4, 1.0f);
+    for (size_t k = 0; k < size_t(sheet.width) * sheet.height; ++k)
+        for (int c = 0; c < 3; ++c) rgba[4 * k + c] = sheet.pixels[3 * k + c];
+    encode_srgb_in_place(rgba.data(), rgba.size(), 0.0f);
+    io::write_png8(path, sheet.width, sheet.height, 4, rgba);
+}
 
 void WriteOptions::validate() const {
     if (!exr && !png) throw std::invalid_argument("no output format: ask for exr, png or both");
     if (!std::isfinite(exposure) || std::fabs(exposure) > 64.0f)
         throw std::invalid_argument("exposure must be a finite number of stops in -64..64");
     if (!manifest_extra.is_object()) throw std::invalid_argument("manifest_extra must be a JSON object");
+    for (size_t i = 0; i < presets.size(); ++i)
+        for (size_t k = 0; k < i; ++k)
+            if (presets[i].name == presets[k].name)
+                throw std::invalid_argument("preset '" + presets[i].name + "' is given twice");
     if (!std::isfinite(rgbm_range) || !(rgbm_range > 0.0f) || rgbm_range > 1e6f)
         throw std::invalid_argument("rgbm_range must be > 0 and finite");
 }
@@ -70,10 +137,11 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                    {"sha256", src.sha256.empty() ? json(nullptr) : json(src.sha256)},
                    {"linearised_from_srgb", src.linearised}};
     m["convention"] = "opengl-y-up";
-    m["layout"] = "hcross";
+    m["layout"] = layout_name(wo.layout);
     m["face_order"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
     if (r.irradiance) {
         m["irradiance"] = {{"file", primary_file("irradiance", wo)},
+                           {"files", all_files("irradiance", wo)},
                            {"face_size", r.irradiance->size},
                            {"divided_by_pi", true},
                            {"method", r.irradiance->size > bo.irradiance_exact_face
@@ -87,6 +155,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     for (size_t i = 0; i < r.specular.size(); ++i) {
         spec.push_back({{"level", r.specular_levels[i]},
                         {"file", primary_file("specular_" + std::to_string(r.specular_levels[i]), wo)},
+                        {"files", all_files("specular_" + std::to_string(r.specular_levels[i]), wo)},
                         {"face_size", r.specular[i].size},
                         {"roughness", r.roughness[i]},
                         {"samples_per_texel", r.samples_per_texel[i]},
@@ -124,6 +193,12 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                                 {"decode", "linear = rgb * a * range * 2^-exposure"},
                                 {"alpha", "holds M on faces (not 1); 0 on unused cross cells"}};
     }
+    if (wo.preview)
+        m["preview"] = {{"file", "preview.png"},
+                        {"radiance_scale", preview_scale(r)},
+                        {"shows", "irradiance, BRDF LUT, every specular level, metal and dielectric spheres per level "
+                                  "lit through the split sum; radiance times radiance_scale (a white diffuse surface at 0.5), "
+                                  "Reinhard's curve with white 4, sRGB"}};
     json timings = json::object();
     for (const auto& [stage, s] : r.timings) timings[stage] = s;
     if (write_seconds >= 0.0) timings["write"] = write_seconds;
@@ -162,6 +237,11 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     return m;
 }
 
+BakeOptions with_exports(BakeOptions bo, const WriteOptions& wo) {
+    bo.extra = extra_outputs(bo, plan_presets(bo, wo.presets));
+    return bo;
+}
+
 json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
                 const SourceInfo& src) {
     wo.validate();
@@ -190,6 +270,12 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
                 e["brdf_lut.png"] = "unorm16";
             }
         });
+    if (wo.preview) jobs.push_back([&](json& e) { write_preview((dir / "preview.png").string(), r); e["preview.png"] = "srgb8"; });
+    // Each engine preset's files into dir/<preset> (export/export.h).
+    const std::vector<PresetPlan> plans = plan_presets(bo, wo.presets);  // the jobs refer to it
+    const std::vector<ExportJob> exports = export_jobs(r, bo, plans, dir, "iblbake " IBLBAKE_VERSION);
+    std::vector<json> preset_parts(exports.size());
+    for (size_t k = 0; k < exports.size(); ++k) jobs.push_back([&, k](json&) { preset_parts[k] = exports[k].run(); });
     std::vector<json> parts(jobs.size(), json::object());
     parallel_for(0, int(jobs.size()), [&](int k) { jobs[k](parts[k]); });
     json encodings = json::object();
@@ -197,6 +283,11 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
         for (const auto& [file, enc] : part.items()) encodings[file] = enc;
     const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     json manifest = make_manifest(r, bo, wo, src, encodings, write_seconds);
+    if (!exports.empty()) {
+        json presets = json::object();
+        for (size_t k = 0; k < exports.size(); ++k) presets[exports[k].preset] = preset_parts[k];
+        manifest["presets"] = presets;
+    }
     {
         std::ofstream f(dir / "manifest.json");
         f << manifest.dump(2) << "\n";

@@ -29,6 +29,21 @@ enum class SpecularMethod {
 const char* specular_method_name(SpecularMethod m);
 SpecularMethod specular_method_from_name(const std::string& name);  // throws std::invalid_argument
 
+// Outputs beyond SPEC's, for engine exports (export/plan.h fills this from
+// the presets asked for): more specular levels, each integrated at its own
+// roughness, and what else a preset writes.
+struct SpecularLevelRequest {
+    int face_size = 0;
+    double roughness = 0.0;
+};
+struct ExtraOutputs {
+    std::vector<SpecularLevelRequest> specular;  // not already among SPEC's levels
+    bool irradiance = false;                     // the irradiance cube even when `irradiance` is off
+    std::vector<LutModel> luts;                  // LUTs of more models, at lut_size
+    bool keep_source = false;                    // the cleaned source image in the result
+    bool any() const { return !specular.empty() || irradiance || !luts.empty() || keep_source; }
+};
+
 struct BakeOptions {
     int face_size = 256;        // specular mip 0
     int irradiance_size = 32;
@@ -52,12 +67,22 @@ struct BakeOptions {
     int max_hot = 1024;               // ... and at most this many
     bool strict = false;              // bad texels are an error instead of 0
     int threads = 0;                  // 0: all cores
+    ExtraOutputs extra;               // for engine presets
 
     // Throws std::invalid_argument naming the option at fault.
     void validate() const;
     int resolved_mip_count() const;
     int resolved_last_level() const;
     double mip_roughness(int level) const;  // SPEC: r_m = m / (M - 1)
+};
+
+struct ExtraSpecularLevel {
+    int face_size = 0;
+    double roughness = 0.0;
+    Cubemap cube;
+    size_t samples_per_texel = 0;
+    std::string method;
+    bool normaliser_from_cache = false;
 };
 
 struct BakeResult {
@@ -82,6 +107,11 @@ struct BakeResult {
     // came from the cache.
     std::vector<int> specular_normaliser_from_cache;
     int integration_width = 0, integration_height = 0;  // the grid the integrals ran on
+    // What options.extra asked for (engine presets).
+    std::vector<ExtraSpecularLevel> extra_specular;
+    std::optional<Cubemap> extra_irradiance;  // when `irradiance` is off
+    std::vector<std::pair<LutModel, Image>> extra_luts;
+    std::optional<Image> source;              // the cleaned source (keep_source)
 };
 
 struct Cancelled : std::runtime_error {

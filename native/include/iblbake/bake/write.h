@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 
 #include "iblbake/bake/bake.h"
+#include "iblbake/export/preset.h"
+#include "iblbake/export/layout.h"
 
 namespace iblbake {
 
@@ -17,11 +19,18 @@ struct WriteOptions {
     PngEncoding png_encoding = PngEncoding::Srgb;
     float exposure = 0.0f;       // stops, PNG only
     float rgbm_range = 8.0f;
+    bool preview = false;        // also preview.png, the contact sheet of image/preview.h
     // More top-level manifest keys (e.g. what a Blender world was turned
     // into); they may not replace the contract's own keys.
     nlohmann::json manifest_extra = nlohmann::json::object();
+    // Engine presets: each writes its files into OUT/<name>/ (docs/export.md).
+    std::vector<Preset> presets;
+    CubeLayout layout = CubeLayout::HCross;  // how the crosses at OUT/ are laid out
     void validate() const;  // throws std::invalid_argument
 };
+
+// `bo` with what the presets of `wo` need from the bake (bo.extra; export/plan.h).
+BakeOptions with_exports(BakeOptions bo, const WriteOptions& wo);
 
 struct SourceInfo {
     std::string path;    // empty for in-memory sources
@@ -34,6 +43,9 @@ struct SourceInfo {
 // `write_seconds` (when >= 0) is added to the timings as the "write" stage.
 nlohmann::json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOptions& wo,
                              const SourceInfo& src, const nlohmann::json& encodings, double write_seconds = -1.0);
+
+// preview.png of a bake (image/preview.h), 8-bit sRGB.
+void write_preview(const std::string& path, const BakeResult& r);
 
 // Write every output and manifest.json into `outdir`, atomically (io/output_dir.h).
 // Returns the manifest.

@@ -66,4 +66,24 @@ struct HierarchicalQuality {
 double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {},
                              std::vector<float>* normaliser = nullptr);
 
+// Up to four levels of one face size in one pass (engine presets bake levels
+// at nearby roughness values): one traversal, by the narrowest lobe among them
+// (a finer set of bins than a broader lobe needs, so none loses accuracy), the
+// distance to each bin computed once and one division per bin serving every
+// lobe. A level's values depend on its group (on the narrowest lobe, and in
+// the last bits on the others): its normaliser must be cached under a key
+// that names the group. Each target's normaliser works as above. Returns the
+// mean number of bins per texel.
+struct SpecularGroupTarget {
+    Cubemap* dst;
+    double roughness;
+    std::vector<float>* normaliser = nullptr;
+};
+double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, const BinTree& tree,
+                                   const HierarchicalQuality& q = {});
+// Whether these roughness values can share a group: at most four, each in
+// (0, 1], the product of the lobes' scaled denominators finite in float
+// (about r >= 0.06 for four, r >= 0.03 for three).
+bool specular_group_safe(const std::vector<double>& roughness);
+
 }  // namespace iblbake
