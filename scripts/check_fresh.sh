@@ -6,7 +6,9 @@
 # (git archive: no build/, no untracked or uncommitted files), and runs, as
 # root inside it:  bash scripts/bake_default.sh  then  bash scripts/test.sh
 # The mirror is read from the host's apt sources at run time (IBLBAKE_MIRROR
-# overrides). Needs root (debootstrap, mounts). Prints the time of each phase.
+# overrides); the host's resolv.conf, hosts and locally added CA certificates
+# (/usr/local/share/ca-certificates) are copied in. Needs root (debootstrap,
+# mounts). Prints the time of each phase.
 #
 # Environment:
 #   IBLBAKE_CHROOT_DIR   where chroots and caches live (default /var/tmp/iblbake-chroots)
@@ -183,8 +185,18 @@ main() {
     } > "$RUN/etc/apt/sources.list"
   fi
   rm -f "$RUN/etc/apt/sources.list.d/"*.sources 2>/dev/null || true
+  # The host's network, as it is: its name servers, hosts, and the CA
+  # certificates its administrator added (a TLS-inspecting proxy's, without
+  # which npm cannot reach its registry); ca-certificates, once installed,
+  # trusts them as it does on the host.
   cp -L /etc/resolv.conf "$RUN/etc/resolv.conf"
   cp /etc/hosts "$RUN/etc/hosts"
+  local crt
+  for crt in /usr/local/share/ca-certificates/*.crt; do
+    [ -f "$crt" ] || continue
+    mkdir -p "$RUN/usr/local/share/ca-certificates"
+    cp "$crt" "$RUN/usr/local/share/ca-certificates/"
+  done
   [ -e "$RUN/etc/mtab" ] || ln -s ../proc/self/mounts "$RUN/etc/mtab"  # as on an installed system
   # dpkg without an fsync per file (a throw-away chroot; what is installed is the same)
   echo force-unsafe-io > "$RUN/etc/dpkg/dpkg.cfg.d/iblbake-unsafe-io"
