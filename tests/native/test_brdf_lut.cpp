@@ -1,8 +1,10 @@
 // The split-sum BRDF LUT: limits, reference points, an independent estimator.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 #include "iblbake/ibl/brdf_lut.h"
 #include "iblbake/math/spline.h"

@@ -1,6 +1,7 @@
 // Cube and lat-long geometry of SPEC.md sections 1 and 2, quadrature, GGX sampling.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "iblbake/image/image.h"

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <functional>
 #include <mutex>
+#include <memory>
 
 #include "iblbake/export/export.h"
 #include "iblbake/ibl/parallel.h"
