@@ -242,18 +242,24 @@ def check_plain_bake(tmp_path, p, module_under):
     assert m["preview"]["file"] == "preview.png" and (tmp_path / "out" / "World" / "preview.png").is_file()
 
 
+def install_as_add_on_and_bake(tmp_path, zip_path):
+    """Preferences > Add-ons > Install of ZIP_PATH in a fresh user folder,
+    enabled, then a plain bake: one folder iblbake/ in the add-ons folder."""
+    env = isolated_env(tmp_path)
+    p = blender_script(tmp_path, "import bpy, addon_utils\n"
+                       "bpy.ops.preferences.addon_install(filepath=%r)\n"
+                       "assert addon_utils.enable('iblbake', default_set=True) is not None\n" % zip_path
+                       + BAKE_PLAIN.format(pkg="iblbake", out=str(tmp_path / "out" / "{world}")), env)
+    check_plain_bake(tmp_path, p, tmp_path / "user" / "scripts")
+    assert os.listdir(tmp_path / "user" / "scripts" / "addons") == ["iblbake"]
+
+
 @needs_zips
 def test_packaged_zip_installs_and_bakes_with_its_own_module(tmp_path):
     """The legacy add-on zip installs through Preferences > Add-ons > Install
     (every Blender; 4.2+ calls it a legacy add-on) and bakes with the module
     inside it (no checkout on the path)."""
-    env = isolated_env(tmp_path)
-    p = blender_script(tmp_path, "import bpy, addon_utils\n"
-                       "bpy.ops.preferences.addon_install(filepath=%r)\n"
-                       "assert addon_utils.enable('iblbake', default_set=True) is not None\n" % ADDON_ZIP
-                       + BAKE_PLAIN.format(pkg="iblbake", out=str(tmp_path / "out" / "{world}")), env)
-    check_plain_bake(tmp_path, p, tmp_path / "user" / "scripts")
-    assert os.listdir(tmp_path / "user" / "scripts" / "addons") == ["iblbake"]
+    install_as_add_on_and_bake(tmp_path, ADDON_ZIP)
 
 
 @needs_zips
@@ -281,13 +287,7 @@ def test_extension_validates_installs_with_blenders_command_and_bakes(tmp_path):
 def test_extension_zip_in_an_older_blender_is_one_working_add_on_folder(tmp_path):
     """Installed by mistake through 3.4's Add-ons > Install, the extension zip
     is still one folder with bl_info (never loose files), and it works."""
-    env = isolated_env(tmp_path)
-    p = blender_script(tmp_path, "import bpy, addon_utils\n"
-                       "bpy.ops.preferences.addon_install(filepath=%r)\n"
-                       "assert addon_utils.enable('iblbake', default_set=True) is not None\n" % EXTENSION_ZIP
-                       + BAKE_PLAIN.format(pkg="iblbake", out=str(tmp_path / "out" / "{world}")), env)
-    check_plain_bake(tmp_path, p, tmp_path / "user" / "scripts")
-    assert os.listdir(tmp_path / "user" / "scripts" / "addons") == ["iblbake"]
+    install_as_add_on_and_bake(tmp_path, EXTENSION_ZIP)
 
 
 @needs_zips
