@@ -217,32 +217,6 @@ TEST(LutCache, SecondBakeReadsTheFirstOnesLut) {
     }
 }
 
-TEST(LutCache, SpecularNormaliserIsReusedWithTheSameBits) {
-    // The hierarchical sums' denominators depend on geometry alone: a second
-    // bake, of another source, reads them and gives the bits a bake without
-    // any cache gives; another eps is another entry.
-    const fs::path dir = temp_dir("normcache");
-    FileLutCache cache(dir / "cache");
-    BakeOptions o = small_options();
-    o.irradiance = false;
-    o.lut = false;
-    const Image a = ref::random_smooth_source(96, 48, 2), b = ref::random_smooth_source(64, 32, 9);
-    const BakeResult first = compute_bake(a, o, {}, &cache);
-    for (int c : first.specular_normaliser_from_cache) EXPECT_EQ(c, 0);
-    const BakeResult warm = compute_bake(b, o, {}, &cache), plain = compute_bake(b, o);
-    ASSERT_EQ(warm.specular.size(), plain.specular.size());
-    for (size_t m = 0; m < warm.specular.size(); ++m) {
-        EXPECT_EQ(warm.specular[m].pixels, plain.specular[m].pixels) << m;
-        EXPECT_EQ(warm.specular_normaliser_from_cache[m], warm.roughness[m] > 0.0 ? 1 : 0) << m;
-    }
-    o.hierarchical.eps = 0.3;
-    for (int c : compute_bake(b, o, {}, &cache).specular_normaliser_from_cache) EXPECT_EQ(c, 0);
-    // Level 1 (face 8, r = 1/4, finest bins 256) is there; asked for another length, it is a miss.
-    const std::string key = specular_normaliser_key(8, 0.25, 0.25, 8, 256);
-    EXPECT_TRUE(cache.load_floats(key, 6 * 8 * 8));
-    EXPECT_FALSE(cache.load_floats(key, 6 * 16 * 16));
-}
-
 TEST(Io, CrossStreamedInBandsReadsBackExactly) {
     // A face of 50: the 150-row cross goes out in bands of 64, 64 and 22 rows.
     const int n = 50;

@@ -29,16 +29,19 @@ int pow2_ceil(double x) {
     return p;
 }
 
-// Finest specular bins: small enough for the narrowest lobe (radius <= eps *
-// 2 alpha_1, about 2.2 / (eps alpha_1) bins across), a power of two, at most
-// 4096 across (the reduction holds 128 bytes a bin while it sums: 1 GB there);
-// chains whose first roughness is below about 0.05 use coarser bins than eps asks.
+// Finest specular bins: small enough for the narrowest lobe the bake makes
+// (radius <= finest_eps * 2 alpha, about 2.2 / (finest_eps alpha) bins
+// across), a power of two, at most 4096 across.
 int finest_bin_width(const BakeOptions& o) {
     const int mips = o.resolved_mip_count();
     if (!o.specular || mips < 2 || o.specular_method != SpecularMethod::Hierarchical || o.resolved_last_level() < 1)
         return 2;
-    const double r1 = o.mip_roughness(std::max(1, o.first_level)), a1 = r1 * r1;
-    return std::clamp(pow2_ceil(2.2 / (o.hierarchical.eps * a1)), 2, 4096);
+    double a_min = 1.0;
+    for (int m = std::max(1, o.first_level); m <= o.resolved_last_level(); ++m) {
+        const double r = o.mip_roughness(m);
+        if (r > 0.0) a_min = std::min(a_min, r * r);
+    }
+    return std::clamp(pow2_ceil(2.2 / (o.hierarchical.finest_eps * a_min)), 2, 4096);
 }
 
 // 0 when the largest value is below 2^64, else the exponent e such that
@@ -214,17 +217,14 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         const ImageView source = view;
         clock.done("sanitize");
 
-        // The integrators work on texel-constant radiance; SPEC integrates the
-        // bilinear L. The two agree to second order in the texel size, so a
-        // source coarser than the integration needs (under 512 across, or
-        // than the finest specular bins) is resampled from L onto a finer
-        // grid first. Mip 0 always reads the original through L itself.
+        // The bins integrate SPEC's bilinear L exactly, whatever the source's
+        // size. Filtered importance sampling (`fis`) and the hot split read
+        // texel-constant radiance instead: for them a source coarser than 512
+        // across is first resampled from L onto a finer grid.
         const int finest_bins = finest_bin_width(o);
-        const int integration_w = std::max(512, finest_bins);
         Image resampled;
-        if (source.width < integration_w || source.height < integration_w / 2)
-            resampled = resample_latlong(source, std::max(source.width, integration_w),
-                                         std::max(source.height, integration_w / 2));
+        if (o.specular_method == SpecularMethod::Fis && (source.width < 512 || source.height < 256))
+            resampled = resample_latlong(source, std::max(source.width, 512), std::max(source.height, 256));
         const ImageView integrand = resampled.width > 0 ? ImageView(resampled) : source;
         r.integration_width = integrand.width;
         r.integration_height = integrand.height;
@@ -306,25 +306,14 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     owned = nullptr;
                 }
                 Cubemap level(n);
-                bool norm_cached = false;
                 if (rough == 0.0) {
                     specular_mirror(level, source);
                     r.samples_per_texel.push_back(1);
                     r.specular_methods.push_back("bilinear source lookup");
                 } else if (!fis) {
-                    // The level's normaliser from the cache when there, else made and kept.
-                    std::vector<float> norm;
-                    const size_t texels = size_t(6) * n * n;
-                    const std::string key = specular_normaliser_key(n, rough, o.hierarchical.eps,
-                                                                    o.hierarchical.tile, finest_bins);
-                    if (lut_cache) {
-                        if (auto cached = lut_cache->load_floats(key, texels)) norm = std::move(*cached);
-                    }
-                    norm_cached = norm.size() == texels;
-                    const double bins = specular_hierarchical(level, tree, rough, o.hierarchical, &norm);
-                    if (lut_cache && !norm_cached) lut_cache->store_floats(key, norm);
+                    const double bins = specular_hierarchical(level, tree, rough, o.hierarchical);
                     r.samples_per_texel.push_back(size_t(std::lround(bins)));
-                    r.specular_methods.push_back("hierarchical kernel sum over exact bins (eps " +
+                    r.specular_methods.push_back("hierarchical second-order kernel sum over exact bins (eps " +
                                                  std::to_string(o.hierarchical.eps).substr(0, 4) + ")");
                 } else {
                     const size_t samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality);
@@ -332,7 +321,6 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     r.specular_methods.push_back("filtered importance sampling + hot texels");
                 }
                 r.specular.push_back(std::move(level));
-                r.specular_normaliser_from_cache.push_back(norm_cached);
                 r.specular_levels.push_back(m);
                 r.roughness.push_back(rough);
                 advance(w_spec / (last - first + 1));

@@ -90,9 +90,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                         {"face_size", r.specular[i].size},
                         {"roughness", r.roughness[i]},
                         {"samples_per_texel", r.samples_per_texel[i]},
-                        {"method", r.specular_methods[i]},
-                        {"normaliser_from_cache", i < r.specular_normaliser_from_cache.size() &&
-                                                      r.specular_normaliser_from_cache[i] != 0}});
+                        {"method", r.specular_methods[i]}});
     }
     m["specular"] = spec;
     m["specular_roughness_mapping"] = "linear: r_m = m / (M - 1)";

@@ -106,62 +106,65 @@ size_t specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vect
 
 namespace {
 
-// The bins a tile uses, as structure-of-arrays: power centroids p, solid-angle
-// centroids c, power per channel, solid angle.
-struct BinSoA {
-    const float *px, *py, *pz, *cx, *cy, *cz, *p0, *p1, *p2, *om;
-};
+// The bins a tile uses, as structure-of-arrays: unit centroid p, g = 1 - |m|,
+// power per channel, covariance (xx, yy, zz, xy, xz, yz).
+enum Field { kPx, kPy, kPz, kG, kP0, kP1, kP2, kCxx, kCyy, kCzz, kCxy, kCxz, kCyz, kFields };
 
 constexpr size_t kLanes = 16;  // independent partial sums: the loop vectorises, the order stays fixed
 
-// sum_b K(n.p_b) power_b and (kWithDen) sum_b K(n.c_b) omega_b over `count`
-// bins (a multiple of kLanes), K the GGX prefilter kernel up to its constant
-// factor (4 a^2 / pi cancels in the ratio). Float lanes within blocks, double
-// across.
-template <bool kWithDen>
-void kernel_sums(const BinSoA& b, size_t count, float a2, const Vec3& n, double num[3], double& den) {
-    num[0] = num[1] = num[2] = den = 0.0;
+// sum_b power_b E_b[K(n.w)] over `count` bins (a multiple of kLanes), K the
+// GGX prefilter kernel up to its constant factor 4 a^2 / pi, by the
+// second-order rule: with X = n.w over the bin's radiance, mean
+// mu = n.m (exact) and variance n^T C n,
+//   E[k(X)] = k(mu) + k''(mu) var / 2 + O(third moments),
+// k(c) = c / t^2, t = (1 - c)(1 - a^2) + 2 a^2, so
+//   k'' / 2 = (2 s / t^3 + 3 s^2 c / t^4), s = 1 - a^2.
+// Float lanes within blocks, double across.
+void kernel_sums(const float* const* f, size_t count, float a2, const Vec3& n, double num[3]) {
+    num[0] = num[1] = num[2] = 0.0;
+    const float s = 1.0f - a2, s2x3 = 3.0f * s * s, sx2 = 2.0f * s, twoa2 = 2.0f * a2;
+    const float nxx = n.x * n.x, nyy = n.y * n.y, nzz = n.z * n.z;
+    const float nxy = 2.0f * n.x * n.y, nxz = 2.0f * n.x * n.z, nyz = 2.0f * n.y * n.z;
     constexpr size_t kBlock = 512;
-    for (size_t s = 0; s < count; s += kBlock) {
-        const size_t e = std::min(count, s + kBlock);
-        float s0[kLanes] = {}, s1[kLanes] = {}, s2[kLanes] = {}, sw[kLanes] = {};
-        for (size_t p = s; p < e; p += kLanes)
+    for (size_t b = 0; b < count; b += kBlock) {
+        const size_t e = std::min(count, b + kBlock);
+        float s0[kLanes] = {}, s1[kLanes] = {}, s2[kLanes] = {};
+        for (size_t p = b; p < e; p += kLanes)
             for (size_t l = 0; l < kLanes; ++l) {
                 const size_t q = p + l;
-                const float dx = n.x - b.px[q], dy = n.y - b.py[q], dz = n.z - b.pz[q];
-                // The numerator's kernel is computed alike in both variants, so
-                // a bake with a cached normaliser gives the same bits.
-                const float kp = ggx::prefilter_kernel_shape(a2, 0.5f * (dx * dx + dy * dy + dz * dz));
-                if constexpr (kWithDen) {
-                    const float ex = n.x - b.cx[q], ey = n.y - b.cy[q], ez = n.z - b.cz[q];
-                    sw[l] += ggx::prefilter_kernel_shape(a2, 0.5f * (ex * ex + ey * ey + ez * ez)) * b.om[q];
-                }
-                s0[l] += kp * b.p0[q];
-                s1[l] += kp * b.p1[q];
-                s2[l] += kp * b.p2[q];
+                const float dx = n.x - f[kPx][q], dy = n.y - f[kPy][q], dz = n.z - f[kPz][q];
+                const float g = f[kG][q];
+                const float omc = g + (1.0f - g) * 0.5f * (dx * dx + dy * dy + dz * dz);  // 1 - n.m
+                const float c = 1.0f - omc;
+                const float var = f[kCxx][q] * nxx + f[kCyy][q] * nyy + f[kCzz][q] * nzz + f[kCxy][q] * nxy +
+                                  f[kCxz][q] * nxz + f[kCyz][q] * nyz;
+                const float it = 1.0f / (s * omc + twoa2);
+                const float k = it * it * (c + var * it * (sx2 + s2x3 * c * it));
+                const float kv = c > 0.0f ? k : 0.0f;
+                s0[l] += kv * f[kP0][q];
+                s1[l] += kv * f[kP1][q];
+                s2[l] += kv * f[kP2][q];
             }
-        float t0 = 0, t1 = 0, t2 = 0, tw = 0;
+        float t0 = 0, t1 = 0, t2 = 0;
         for (size_t l = 0; l < kLanes; ++l) {
             t0 += s0[l];
             t1 += s1[l];
             t2 += s2[l];
-            tw += sw[l];
         }
         num[0] += t0;
         num[1] += t1;
         num[2] += t2;
-        den += tw;
     }
 }
 
 }  // namespace
 
-double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q,
-                             std::vector<float>* normaliser) {
-    const size_t texels = size_t(6) * dst.size * dst.size;
-    const bool given = normaliser && normaliser->size() == texels;
-    if (normaliser && !given) normaliser->assign(texels, 0.0f);
+double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q) {
     const float alpha = float(roughness * roughness), a2 = alpha * alpha;
+    // The exact normaliser: integral of K over the sphere, in closed form, in
+    // the units kernel_sums uses (without the factor 4 a^2 / pi).
+    const double a2d = roughness * roughness * roughness * roughness;
+    const double inv_z = 4.0 * a2d / (kPi * ggx::prefilter_normalizer(roughness * roughness));
     // The lobe's angular length scale in w: 2 alpha for narrow lobes, about
     // one radian (the cosine's) as alpha -> 1.
     const float scale = 2.0f * alpha / (1.0f + alpha);
@@ -195,7 +198,7 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
 
         // Traverse: accept a bin whole when it is small against the kernel's
         // length scale at its least distance from the tile.
-        thread_local std::vector<float> acc[10];
+        thread_local std::vector<float> acc[kFields];
         thread_local std::vector<int> stack;
         for (auto& a : acc) a.clear();
         stack.clear();
@@ -208,22 +211,20 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
             const int lvl = code >> 26, y = (code >> 13) & 8191, x = code & 8191;
             const BinLevel& L = tree.levels[lvl];
             const size_t b = L.index(x, y);
-            if (!(L.omega[b] > 0.0f)) continue;
-            const float cosd = c.x * L.cx[b] + c.y * L.cy[b] + c.z * L.cz[b];
-            const float d = fast_acos(cosd);
             const float beta = L.radius[b];
+            if (beta < 0.0f) continue;  // no radiance
+            const float cosd = c.x * L.px[b] + c.y * L.py[b] + c.z * L.pz[b];
+            const float d = fast_acos(cosd);
             if (d - beta - rho >= 0.5f * float(kPi)) continue;  // behind every texel's horizon
             const float dmin = std::max(0.0f, d - beta - rho);
             const bool near_horizon = std::fabs(d - 0.5f * float(kPi)) <= beta + rho;
             const float length_scale = near_horizon ? std::min(horizon_scale, std::max(scale, dmin))
                                                     : std::max(scale, dmin);
             if (lvl == 0 || beta <= eps * length_scale) {
-                acc[0].push_back(L.px[b]); acc[1].push_back(L.py[b]); acc[2].push_back(L.pz[b]);
-                if (!given) {  // the solid-angle centroids serve the denominator alone
-                    acc[3].push_back(L.cx[b]); acc[4].push_back(L.cy[b]); acc[5].push_back(L.cz[b]);
-                    acc[9].push_back(L.omega[b]);
-                }
-                acc[6].push_back(L.power[0][b]); acc[7].push_back(L.power[1][b]); acc[8].push_back(L.power[2][b]);
+                acc[kPx].push_back(L.px[b]); acc[kPy].push_back(L.py[b]); acc[kPz].push_back(L.pz[b]);
+                acc[kG].push_back(L.g[b]);
+                for (int ch = 0; ch < 3; ++ch) acc[kP0 + ch].push_back(L.power[ch][b]);
+                for (int k = 0; k < 6; ++k) acc[kCxx + k].push_back(L.cov[k][b]);
             } else {
                 const int cl = lvl - 1;
                 for (int dy = 0; dy < 2; ++dy)
@@ -233,31 +234,18 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
         }
         const size_t count = acc[0].size();
         used[tile] = double(count);
-        // Pad to whole lanes with bins of no power and no solid angle.
+        // Pad to whole lanes with bins of no power.
         const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
-        for (auto& a : acc)
-            if (!a.empty() || !given) a.resize(padded, 0.0f);
-        const BinSoA bins{acc[0].data(), acc[1].data(), acc[2].data(), acc[3].data(), acc[4].data(),
-                          acc[5].data(), acc[6].data(), acc[7].data(), acc[8].data(), acc[9].data()};
+        for (auto& a : acc) a.resize(padded, 0.0f);
+        const float* fields[kFields];
+        for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
         size_t k = 0;
         for (int j = j0; j < j1; ++j)
             for (int i = i0; i < i1; ++i, ++k) {
-                double num[3], den;
-                const size_t t = (size_t(face) * n + j) * n + i;
-                // The denominator is geometry alone (bin centroids and solid
-                // angles, the same bins for any source): a cached one is used
-                // as is, a computed one is rounded to float as the cache keeps
-                // it, so warm and cold bakes give the same bits.
-                if (given) {
-                    kernel_sums<false>(bins, padded, a2, dirs[k], num, den);
-                    den = (*normaliser)[t];
-                } else {
-                    kernel_sums<true>(bins, padded, a2, dirs[k], num, den);
-                    den = double(float(den));
-                    if (normaliser) (*normaliser)[t] = float(den);
-                }
+                double num[3];
+                kernel_sums(fields, padded, a2, dirs[k], num);
                 float* o = dst.at(face, i, j);
-                for (int ch = 0; ch < 3; ++ch) o[ch] = den > 0.0 ? float(num[ch] / den) : 0.0f;
+                for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[ch] * inv_z);
             }
     });
     double total = 0.0;

@@ -78,9 +78,6 @@ struct BakeResult {
     std::vector<size_t> samples_per_texel;  // per specular level (bins per texel, hierarchical)
     std::vector<std::string> specular_methods;
     bool lut_from_cache = false;
-    // Per specular level: its normaliser (hierarchical sums' denominator)
-    // came from the cache.
-    std::vector<int> specular_normaliser_from_cache;
     int integration_width = 0, integration_height = 0;  // the grid the integrals ran on
 };
 

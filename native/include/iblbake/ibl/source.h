@@ -88,12 +88,14 @@ HotSplit split_hot(ImageView img, double relative_threshold, int max_hot);
 Image rest_image(ImageView img, const HotSplit& split);
 
 // An energy-exact reduction of a lat-long image to a grid of bw x bh bins
-// overlaid on its texels (texels are split where bins cut them, so any source
-// size works, 1 x 1 included). Radiance is texel-constant; every integral is
-// exact (math/latlong.h).
+// overlaid on it (any sizes, 1 x 1 included): every bin holds the exact
+// integrals of SPEC.md's L, the bilinear reconstruction, over its rectangle
+// (sums of texel values times products of hat integrals, math/latlong.h).
 struct Bin {
     double vector[3][3];  // per channel: integral of L_c w dOmega (engine space)
     double power[3];      // per channel: integral of L_c dOmega
+    // Integral of (L_r + L_g + L_b) w w^T dOmega (engine space): xx, yy, zz, xy, xz, yz.
+    double second[6];
     // (A bin's geometry, its solid angle and first moment, is that of its
     // rectangle alone: rect_solid_angle and rect_moment, math/latlong.h.)
 };
@@ -110,9 +112,8 @@ public:
 private:
     ImageView img_;
     int bw_, bh_;
-    std::vector<OverlayPiece> cols_, rows_;
-    std::vector<LonIntegrals> lon_;
-    std::vector<size_t> first_;
+    std::vector<HatPiece> cols_, rows_;
+    std::vector<size_t> first_;  // first row piece of each bin row
 };
 // o += b, every integral.
 void add_bins(Bin& o, const Bin& b);

@@ -44,26 +44,20 @@ size_t specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vect
 struct HierarchicalQuality {
     double eps = 0.25;  // a bin is used whole when its radius <= eps * the kernel's length scale there
     int tile = 8;       // output texels share one traversal per tile x tile block
+    double finest_eps = 0.35;  // the finest bins' radius <= finest_eps * 2 alpha of the narrowest lobe
 };
 
 // Level for roughness r > 0 by a hierarchical (Barnes-Hut) kernel sum over a
 // bin pyramid: for each tile of output texels, bins are taken whole where
 // they are small against the kernel's local length scale, max(2 alpha, the
-// bin's least distance to the tile), else split down to the finest level:
-//   Pre(n) = sum_b P_b K(n.p_b) / sum_b Omega_b K(n.c_b),
-// p_b the bin's power centroid, c_b its solid-angle centroid. The result is
-// a deterministic quadrature of SPEC.md's integral whose error is set by eps
-// alone (second order in eps), with no sampling noise and no clamping.
+// bin's least distance to the tile), else split down to the finest level.
+// Each bin is integrated by a second-order rule from its radiance's moments
+// (mean m and covariance C of w):
+//   Pre(n) = sum_b P_b [k(n.m_b) + k''(n.m_b) n^T C_b n / 2] / Z,
+// with Z the kernel's integral in closed form. The result is a deterministic
+// quadrature of SPEC.md's integral over the bilinear L whose error is set
+// by eps, with no sampling noise and no clamping.
 // Returns the mean number of bins per texel.
-// The sum is a ratio: sum K power over sum K solid angle on the same bins, so
-// a constant world comes out exact. The denominator depends on geometry alone
-// (the bins' rectangles, which the tree takes from exact integrals, never
-// from the source), so it can be kept and reused by any later bake with the
-// same face size, roughness, eps, tile and finest bins: with `normaliser`
-// holding 6 n^2 values (face, row, column order) they are used and only the
-// numerator is summed (about 40 % less work); otherwise, given an empty
-// vector, it is filled.
-double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {},
-                             std::vector<float>* normaliser = nullptr);
+double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {});
 
 }  // namespace iblbake
