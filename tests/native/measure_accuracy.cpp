@@ -108,6 +108,7 @@ int main(int argc, char** argv) {
         else if (k == "--eps") o.hierarchical.eps = v;
         else if (k == "--tile") o.hierarchical.tile = int(v);
         else if (k == "--finest-eps") o.hierarchical.finest_eps = v;
+        else if (k == "--horizon") o.hierarchical.horizon = v;
         else if (k == "--ref-cache") cache = argv[a + 1];
         else if (k == "--worst") worst = int(v);
         else { std::fprintf(stderr, "unknown option %s\n", k.c_str()); return 2; }

@@ -76,6 +76,19 @@ auto in_arena(int threads, Fn&& fn) {
     return arena.execute(fn);
 }
 
+// Waits for a sink's work on the way out of a bake that throws (a bake that
+// returns has waited already, and rethrown any failure).
+struct SinkGuard {
+    OutputSink* sink;
+    ~SinkGuard() {
+        if (!sink) return;
+        try {
+            sink->wait();
+        } catch (...) {  // the bake's own exception is the one that propagates
+        }
+    }
+};
+
 // The LUT, read from the cache when there (it depends on its settings alone).
 void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
@@ -171,11 +184,12 @@ namespace {
 // cleaned in place; otherwise a source that needs cleaning is copied first
 // and a clean one is read where it lies.
 BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const ProgressFn& progress,
-                       LutCache* lut_cache) {
+                       LutCache* lut_cache, OutputSink* sink) {
     o.validate();
     if (view.width < 1 || view.height < 1) throw std::invalid_argument("source image is empty");
     return in_arena(o.threads, [&] {
         BakeResult r;
+        const SinkGuard guard{sink};  // destroyed before r: what the sink reads outlives it
         StageClock clock(r);
         auto report = [&](const std::string& stage, double f) {
             if (progress && !progress(stage, f)) throw Cancelled();
@@ -233,6 +247,42 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
         clock.done("sh9");
 
+        // Outputs are final once made: scaled back (the overflow guard) and
+        // handed to the sink, which may start writing them at once.
+        auto finished = [&](std::vector<float>& px) {
+            if (scale_exp != 0)
+                for (float& v : px) v = std::ldexp(v, scale_exp);
+        };
+        const bool fis = o.specular_method == SpecularMethod::Fis;
+        const int first = o.first_level, last = o.resolved_last_level();
+        if (o.specular) {
+            r.specular.reserve(size_t(last - first + 1));  // the sink holds references into it
+            r.specular_levels.reserve(size_t(last - first + 1));
+        }
+        auto specular_done = [&](Cubemap&& level, int m, double rough) {
+            finished(level.pixels);
+            r.specular.push_back(std::move(level));
+            r.specular_levels.push_back(m);
+            r.roughness.push_back(rough);
+            if (sink) sink->cube("specular_" + std::to_string(m), r.specular.back());
+            advance(w_spec / (last - first + 1));
+            report("specular", done);
+        };
+
+        // Mip 0 (r = 0 by default) first: the largest file, whose writing
+        // then overlaps everything that follows.
+        int next = first;
+        if (o.specular && o.mip_roughness(first) == 0.0) {
+            report("specular", done);
+            Cubemap level(std::max(1, o.face_size >> first));
+            specular_mirror(level, source);
+            r.samples_per_texel.push_back(1);
+            r.specular_methods.push_back("bilinear source lookup");
+            specular_done(std::move(level), first, 0.0);
+            next = first + 1;
+            clock.done("specular_mip0");
+        }
+
         const bool need_split =
             o.irradiance || (o.specular && mips > 1 && o.specular_method == SpecularMethod::Fis);
         HotSplit split;
@@ -249,8 +299,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
 
         // The hierarchical specular's bin tree, built first: its coarser exact
         // bins are the irradiance's too, which then needs no pass of its own.
-        const bool fis = o.specular_method == SpecularMethod::Fis;
-        const bool need_tree = o.specular && !fis && mips > 1 && o.resolved_last_level() > 0;
+        const bool need_tree = o.specular && !fis && mips > 1 && last > 0;
         const bool irr_from_tree = o.irradiance && need_tree && o.irradiance_bins <= finest_bins / 4;
         BinTree tree;
         std::vector<Bin> irr_bins;
@@ -270,7 +319,9 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             for (const RadiancePoint& p : split.hot) cloud.add(p.mean_dir, p.power);
             Cubemap irr(o.irradiance_size);
             irradiance_convolve(irr, cloud, o.irradiance_exact_face);
+            finished(irr.pixels);
             r.irradiance = std::move(irr);
+            if (sink) sink->cube("irradiance", *r.irradiance);
             clock.done("irradiance");
             advance(w_irr);
         } else {
@@ -294,8 +345,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
             }
-            const int first = o.first_level, last = o.resolved_last_level();
-            for (int m = first; m <= last; ++m) {
+            for (int m = next; m <= last; ++m) {
                 const int n = std::max(1, o.face_size >> m);
                 const double rough = o.mip_roughness(m);
                 if (rough > 0.0 && !fis && owned) {
@@ -320,11 +370,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     r.samples_per_texel.push_back(samples + split.hot.size());
                     r.specular_methods.push_back("filtered importance sampling + hot texels");
                 }
-                r.specular.push_back(std::move(level));
-                r.specular_levels.push_back(m);
-                r.roughness.push_back(rough);
-                advance(w_spec / (last - first + 1));
-                report("specular", done);
+                specular_done(std::move(level), m, rough);
             }
             skip_levels(r, o);
             clock.done("specular");
@@ -335,22 +381,19 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         if (o.lut) {
             report("brdf_lut", done);
             lut_stage(r, o, lut_cache);
+            if (sink) sink->lut(*r.lut);
             clock.done("brdf_lut");
             advance(w_lut);
         } else {
             skip("brdf_lut");
         }
         if (scale_exp != 0) {
-            auto rescale = [&](std::vector<float>& px) {
-                for (float& v : px) v = std::ldexp(v, scale_exp);
-            };
-            if (r.irradiance) rescale(r.irradiance->pixels);
-            for (Cubemap& c : r.specular) rescale(c.pixels);
             for (auto& ch : r.sh9)
                 for (double& v : ch) v = std::ldexp(v, scale_exp);
             for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
             r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
         }
+        if (sink) sink->wait();
         report("done", 1.0);
         return r;
     });
@@ -358,13 +401,14 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
 
 }  // namespace
 
-BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress, LutCache* lut_cache) {
-    return bake_source(source, &source, o, progress, lut_cache);
+BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress, LutCache* lut_cache,
+                        OutputSink* sink) {
+    return bake_source(source, &source, o, progress, lut_cache, sink);
 }
 
 BakeResult compute_bake_view(ImageView source, const BakeOptions& o, const ProgressFn& progress,
-                             LutCache* lut_cache) {
-    return bake_source(source, nullptr, o, progress, lut_cache);
+                             LutCache* lut_cache, OutputSink* sink) {
+    return bake_source(source, nullptr, o, progress, lut_cache, sink);
 }
 
 }  // namespace iblbake
@@ -372,10 +416,11 @@ BakeResult compute_bake_view(ImageView source, const BakeOptions& o, const Progr
 namespace iblbake {
 
 BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOptions& o, const ProgressFn& progress,
-                                 LutCache* lut_cache) {
+                                 LutCache* lut_cache, OutputSink* sink) {
     o.validate();
     return in_arena(o.threads, [&] {
         BakeResult r;
+        const SinkGuard guard{sink};
         StageClock clock(r);
         auto report = [&](const std::string& stage, double f) {
             if (progress && !progress(stage, f)) throw Cancelled();
@@ -395,11 +440,17 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
             r.mean_radiance[k] = c[k];
             r.sh9[k][0] = 2.0 * std::sqrt(kPi) * c[k];  // integral of Y_00 = 1 / (2 sqrt(pi)) over the sphere
         }
-        if (o.irradiance) r.irradiance = fill(o.irradiance_size);
-        else r.skipped.push_back(skip_reason(o, "irradiance", "disabled by option"));
+        if (o.irradiance) {
+            r.irradiance = fill(o.irradiance_size);
+            if (sink) sink->cube("irradiance", *r.irradiance);
+        } else {
+            r.skipped.push_back(skip_reason(o, "irradiance", "disabled by option"));
+        }
         if (o.specular) {
+            r.specular.reserve(size_t(o.resolved_last_level() - o.first_level + 1));  // the sink holds references
             for (int m = o.first_level; m <= o.resolved_last_level(); ++m) {
                 r.specular.push_back(fill(std::max(1, o.face_size >> m)));
+                if (sink) sink->cube("specular_" + std::to_string(m), r.specular.back());
                 r.specular_levels.push_back(m);
                 r.roughness.push_back(o.mip_roughness(m));
                 r.samples_per_texel.push_back(0);
@@ -413,10 +464,12 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         if (o.lut) {
             report("brdf_lut", 0.5);
             lut_stage(r, o, lut_cache);
+            if (sink) sink->lut(*r.lut);
             clock.done("brdf_lut");
         } else {
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
+        if (sink) sink->wait();
         report("done", 1.0);
         return r;
     });

@@ -18,8 +18,10 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     src.height = loaded.image.height;
     src.sha256 = io::sha256_file(source_path);
     src.linearised = loaded.linearised;
-    const BakeResult r = compute_bake(std::move(loaded.image), bo, progress, lut_cache);
-    return write_bake(r, outdir, bo, wo, src);
+    // Every file is written as soon as its output is made, while the bake goes on.
+    BakeWriter writer(outdir, wo);
+    const BakeResult r = compute_bake(std::move(loaded.image), bo, progress, lut_cache, &writer);
+    return writer.finish(r, bo, src);
 }
 
 }  // namespace iblbake

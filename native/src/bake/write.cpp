@@ -5,6 +5,9 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <mutex>
+
+#include <tbb/task_group.h>
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/image/encode.h"
@@ -160,48 +163,105 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     return m;
 }
 
-json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
-                const SourceInfo& src) {
+struct BakeWriter::Impl {
+    WriteOptions wo;
+    io::StagingDir staging;
+    tbb::task_group tasks;
+    std::mutex mutex;
+    std::vector<std::pair<std::string, json>> parts;  // per file set, merged in name order
+    std::exception_ptr error;
+    Impl(const fs::path& outdir, const WriteOptions& w) : wo(w), staging(outdir) {}
+
+    // Runs job on its own task; records its encodings or its failure.
+    void run(const std::string& name, std::function<void(json&)> job) {
+        tasks.run([this, name, job = std::move(job)] {
+            {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (error) return;
+            }
+            json e = json::object();
+            try {
+                job(e);
+            } catch (...) {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (!error) error = std::current_exception();
+                return;
+            }
+            std::lock_guard<std::mutex> lock(mutex);
+            parts.emplace_back(name, std::move(e));
+        });
+    }
+};
+
+BakeWriter::BakeWriter(const fs::path& outdir, const WriteOptions& wo) {
     wo.validate();
+    impl_ = std::make_unique<Impl>(outdir, wo);
+}
+
+BakeWriter::~BakeWriter() {
+    // Nothing may still write into the staging folder when it is removed.
+    impl_->tasks.cancel();
+    impl_->tasks.wait();
+}
+
+void BakeWriter::cube(const std::string& stem, const Cubemap& cube) {
+    const fs::path dir = impl_->staging.path();
+    const WriteOptions& wo = impl_->wo;
+    impl_->run(stem, [dir, stem, &cube, &wo](json& e) { write_cross(dir, stem, cube, wo, e); });
+}
+
+void BakeWriter::lut(const Image& lut) {
+    const fs::path dir = impl_->staging.path();
+    const WriteOptions& wo = impl_->wo;
+    impl_->run("brdf_lut", [dir, &lut, &wo](json& e) {
+        if (wo.exr) {
+            io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
+            e["brdf_lut.exr"] = "float";
+        }
+        if (wo.png) {
+            std::vector<float> v(lut.pixels.size());
+            for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
+            io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
+            e["brdf_lut.png"] = "unorm16";
+        }
+    });
+}
+
+void BakeWriter::wait() {
+    impl_->tasks.wait();
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    if (impl_->error) std::rethrow_exception(impl_->error);
+}
+
+json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const SourceInfo& src) {
     const auto start = std::chrono::steady_clock::now();
-    io::StagingDir staging(outdir);
-    const fs::path dir = staging.path();
-    // One job per file set, written in parallel (separate files, separate
-    // encoders); each records its encodings, merged in a fixed order.
-    std::vector<std::function<void(json&)>> jobs;
-    if (r.irradiance) jobs.push_back([&](json& e) { write_cross(dir, "irradiance", *r.irradiance, wo, e); });
-    for (size_t i = 0; i < r.specular.size(); ++i)
-        jobs.push_back([&, i](json& e) {
-            write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, e);
-        });
-    if (r.lut)
-        jobs.push_back([&](json& e) {
-            const Image& lut = *r.lut;
-            if (wo.exr) {
-                io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
-                e["brdf_lut.exr"] = "float";
-            }
-            if (wo.png) {
-                std::vector<float> v(lut.pixels.size());
-                for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
-                io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
-                e["brdf_lut.png"] = "unorm16";
-            }
-        });
-    std::vector<json> parts(jobs.size(), json::object());
-    parallel_for(0, int(jobs.size()), [&](int k) { jobs[k](parts[k]); });
+    wait();
+    std::sort(impl_->parts.begin(), impl_->parts.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
     json encodings = json::object();
-    for (const json& part : parts)
-        for (const auto& [file, enc] : part.items()) encodings[file] = enc;
-    const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    json manifest = make_manifest(r, bo, wo, src, encodings, write_seconds);
+    for (const auto& part : impl_->parts)
+        for (const auto& [file, enc] : part.second.items()) encodings[file] = enc;
+    const fs::path dir = impl_->staging.path();
+    // "write": how long the files kept the bake waiting once it was computed
+    // (they were written while it ran).
+    const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    json manifest = make_manifest(r, bo, impl_->wo, src, encodings, waited);
     {
         std::ofstream f(dir / "manifest.json");
         f << manifest.dump(2) << "\n";
         if (!f) throw std::runtime_error("cannot write manifest.json");
     }
-    staging.commit();
+    impl_->staging.commit();
     return manifest;
+}
+
+json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
+                const SourceInfo& src) {
+    BakeWriter w(outdir, wo);
+    if (r.irradiance) w.cube("irradiance", *r.irradiance);
+    for (size_t i = 0; i < r.specular.size(); ++i) w.cube("specular_" + std::to_string(r.specular_levels[i]), r.specular[i]);
+    if (r.lut) w.lut(*r.lut);
+    return w.finish(r, bo, src);
 }
 
 }  // namespace iblbake

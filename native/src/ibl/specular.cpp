@@ -169,11 +169,15 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
     // one radian (the cosine's) as alpha -> 1.
     const float scale = 2.0f * alpha / (1.0f + alpha);
     const float eps = float(q.eps);
-    // K = D(h) max(0, n.w) has a kink at n's horizon with slope D(45 deg);
-    // relative to the kernel's integral Z that slope sets how small bins that
-    // straddle a horizon must be: length scale 0.1 / sqrt(D45 / Z).
+    // K = D(h) max(0, n.w) has a kink at n's horizon with slope D(45 deg),
+    // where no rule from a bin's moments is exact (a bin across it loses the
+    // part of its radiance behind; by Jensen's inequality every such rule
+    // comes out low). Relative to the kernel's integral Z that slope sets how
+    // small bins that may straddle a horizon must be, whatever eps:
+    // radius <= horizon / sqrt(D45 / Z).
     const double d45 = 4.0 * a2 / (kPi * (1.0 + a2) * (1.0 + a2));
-    const float horizon_scale = float(std::min(kPi, 0.1 / std::sqrt(d45 / ggx::prefilter_normalizer(alpha))));
+    const float horizon_radius =
+        float(std::min(kPi, q.horizon / std::sqrt(d45 / ggx::prefilter_normalizer(alpha))));
     const int n = dst.size, T = std::max(1, std::min(q.tile, n));
     const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
     const int top = int(tree.levels.size()) - 1;
@@ -218,9 +222,8 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
             if (d - beta - rho >= 0.5f * float(kPi)) continue;  // behind every texel's horizon
             const float dmin = std::max(0.0f, d - beta - rho);
             const bool near_horizon = std::fabs(d - 0.5f * float(kPi)) <= beta + rho;
-            const float length_scale = near_horizon ? std::min(horizon_scale, std::max(scale, dmin))
-                                                    : std::max(scale, dmin);
-            if (lvl == 0 || beta <= eps * length_scale) {
+            const bool small = beta <= eps * std::max(scale, dmin) && (!near_horizon || beta <= horizon_radius);
+            if (lvl == 0 || small) {
                 acc[kPx].push_back(L.px[b]); acc[kPy].push_back(L.py[b]); acc[kPz].push_back(L.pz[b]);
                 acc[kG].push_back(L.g[b]);
                 for (int ch = 0; ch < 3; ++ch) acc[kP0 + ch].push_back(L.power[ch][b]);
@@ -244,6 +247,7 @@ double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness
             for (int i = i0; i < i1; ++i, ++k) {
                 double num[3];
                 kernel_sums(fields, padded, a2, dirs[k], num);
+
                 float* o = dst.at(face, i, j);
                 for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[ch] * inv_z);
             }

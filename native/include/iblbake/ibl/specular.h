@@ -42,9 +42,10 @@ size_t specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vect
                         double roughness, const SpecularQuality& q);
 
 struct HierarchicalQuality {
-    double eps = 0.25;  // a bin is used whole when its radius <= eps * the kernel's length scale there
+    double eps = 0.4;  // a bin is used whole when its radius <= eps * the kernel's length scale there
     int tile = 8;       // output texels share one traversal per tile x tile block
     double finest_eps = 0.35;  // the finest bins' radius <= finest_eps * 2 alpha of the narrowest lobe
+    double horizon = 0.025;    // bins that may straddle a texel's horizon: radius <= horizon / sqrt(D(45 deg) / Z)
 };
 
 // Level for roughness r > 0 by a hierarchical (Barnes-Hut) kernel sum over a
