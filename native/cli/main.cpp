@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
                      "hierarchical (deterministic kernel sum over exact bins) or fis (filtered importance sampling)")
         ->capture_default_str();
     bake->add_option("--eps", bo.hierarchical.eps,
-                     "hierarchical: bin size against the kernel's length scale; error grows as eps^2")
+                     "hierarchical: bin size against the kernel's length scale; error grows as eps^3")
         ->capture_default_str();
     bake->add_option("--samples", samples,
                      "fis: samples per texel, approximately (sets --rings to sqrt(S)/2 and the azimuthal cap to "

@@ -69,7 +69,7 @@ void fine_cell(const TexelTable& t, const Vec3d& nb, const Kernel& k, int x, int
     const double* wg = q == 2 ? wg2 : kW3;
     const double du = 1.0 / (w * s), dt = (t1 - t0) / s;
     // Latitude nodes once per cell: cos, sin, weight, fraction b toward row yc.
-    double cl[64 * 3], sl[64 * 3], wt[64 * 3], bf[64 * 3];
+    double cl[128 * 3], sl[128 * 3], wt[128 * 3], bf[128 * 3];
     const int nt = s * q;
     for (int sj = 0; sj < s; ++sj)
         for (int gj = 0; gj < q; ++gj) {
@@ -148,19 +148,22 @@ void integrate(const TexelTable& t, const Vec3d& n, const Kernel& k, double core
         }
         // Near: within 12 cell radii of n (the 2 x 2 rule needs the kernel's
         // length scale >= 12 cell radii), split to 0.15 of the length scale.
+        // Cells of tiny sources (over 0.05 rad) are always split: no kernel
+        // is smooth on a scale over about a radian.
+        const bool big = r > 0.05;
         const double near_cos = core < 0.0 ? 2.0 : std::cos(std::min(kPi, 13.0 * r));
         for (int x = 0; x < w; ++x) cc[x] = t.cclat[yc] * ac[x] + nb.z * t.cslat[yc];
         for (int x = 0; x < w; ++x) {
             const double c = cc[x];
             const bool horizon = std::fabs(c) <= sr, near = c > near_cos;
-            if (!horizon && !near) continue;
+            if (!horizon && !near && !big) continue;
             fine_cell(t, nb, k, x, yc, 1, 2, -1.0, row);  // the 2 x 2 rule's share, out
             if (horizon) {
-                fine_cell(t, nb, k, x, yc, 3, 3, 1.0, row);
+                fine_cell(t, nb, k, x, yc, std::clamp(int(std::ceil(r / 0.005)), 3, 128), 3, 1.0, row);
             } else {
                 const double d = std::max(0.0, std::acos(std::min(1.0, c)) - r);
-                const double len = std::max(d, core);
-                const int s = len > 0.0 ? std::clamp(int(std::ceil(r / (0.15 * len))), 1, 64) : 8;
+                const double len = std::min(1.0, std::max({d, core, 0.05}));
+                const int s = std::clamp(int(std::ceil(r / (0.15 * len))), 1, 128);
                 fine_cell(t, nb, k, x, yc, s, 3, 1.0, row);
             }
         }

@@ -19,10 +19,7 @@ public:
     LevelFiller(BinLevel& level, int w, int h) : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1) {
         L_.w = w;
         L_.h = h;
-        const size_t n = size_t(w) * h;
-        for (auto* v : {&L_.px, &L_.py, &L_.pz, &L_.g, &L_.radius}) v->resize(n);
-        for (auto& v : L_.power) v.resize(n);
-        for (auto& v : L_.cov) v.resize(n);
+        L_.nodes.assign(size_t(w) * h, BinNode{});
         // Longitudes at every half bin (the radius test's 3 x 3 points per
         // bin): cos and sin once per level, not per bin.
         for (int k = 0; k <= 2 * w; ++k) {
@@ -41,34 +38,32 @@ public:
             slat[r] = std::sin(lat);
         }
         for (int x = 0; x < w_; ++x) {
-            const size_t i = L_.index(x, y);
+            BinNode& nd = L_.nodes[L_.index(x, y)];
             const Bin& b = bins[x];
             const double psum = b.power[0] + b.power[1] + b.power[2];
             Vec3d m{0, 0, 0};
             for (int ch = 0; ch < 3; ++ch) m += Vec3d{b.vector[ch][0], b.vector[ch][1], b.vector[ch][2]};
             const double ml = length(m);
-            for (int ch = 0; ch < 3; ++ch) L_.power[ch][i] = float(b.power[ch]);
+            for (int ch = 0; ch < 3; ++ch) nd.power[ch] = float(b.power[ch]);
             if (!(psum > 0.0) || !(ml > 0.0)) {  // no radiance: never used
-                L_.px[i] = L_.py[i] = L_.pz[i] = L_.g[i] = 0.0f;
-                for (auto& c : L_.cov) c[i] = 0.0f;
-                L_.radius[i] = -1.0f;
+                nd.radius = -1.0f;
                 continue;
             }
             m = m / psum;  // |m| <= 1
             const Vec3d p = m / (ml / psum);
-            L_.px[i] = float(p.x); L_.py[i] = float(p.y); L_.pz[i] = float(p.z);
-            L_.g[i] = float(std::max(0.0, 1.0 - ml / psum));
+            nd.px = float(p.x), nd.py = float(p.y), nd.pz = float(p.z);
+            nd.g = float(std::max(0.0, 1.0 - ml / psum));
             const double* s = b.second;
             const double cov[6] = {s[0] / psum - m.x * m.x, s[1] / psum - m.y * m.y, s[2] / psum - m.z * m.z,
                                    s[3] / psum - m.x * m.y, s[4] / psum - m.x * m.z, s[5] / psum - m.y * m.z};
-            for (int k = 0; k < 6; ++k) L_.cov[k][i] = float(cov[k]);
+            for (int k = 0; k < 6; ++k) nd.cov[k] = float(cov[k]);
             double min_cos = 1.0;
             for (int k = 0; k < 9; ++k) {
                 const int col = 2 * x + k % 3, r = k / 3;
                 const Vec3d blender{clat[r] * cphi_[col], clat[r] * sphi_[col], slat[r]};
                 min_cos = std::min(min_cos, dot(p, blender_to_engine(blender)));
             }
-            L_.radius[i] = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
+            nd.radius = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
         }
     }
 

@@ -172,6 +172,11 @@ Image remap_latlong(ImageView img, const std::array<double, 9>& a, const std::ar
     return out;
 }
 
+namespace {
+void add_hat_product(Bin& b, const double v[3], const double* s0, const double* s1, const double* s2,
+                     const double* c0, const double* c1, const double U[6]);
+}  // namespace
+
 HotSplit split_hot(ImageView img, double relative_threshold, int max_hot) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
@@ -257,6 +262,16 @@ HotSplit split_hot(ImageView img, double relative_threshold, int max_hot) {
             const Vec3d md = Vec3d{U[1] * V[3], U[0] * V[1], -U[2] * V[3]} / om;
             p.dir[0] = float(d.x); p.dir[1] = float(d.y); p.dir[2] = float(d.z);
             p.mean_dir[0] = float(md.x); p.mean_dir[1] = float(md.y); p.mean_dir[2] = float(md.z);
+            {
+                Bin one{};
+                const double unit[3] = {1.0, 0.0, 0.0}, s0[3] = {V[0], 0, 0}, s1[3] = {V[1], 0, 0},
+                             s2[3] = {V[2], 0, 0}, c0[3] = {V[3], 0, 0}, c1[3] = {V[4], 0, 0};
+                add_hat_product(one, unit, s0, s1, s2, c0, c1, U);
+                const double* sm = one.second;
+                const double cv[6] = {sm[0] / om - md.x * md.x, sm[1] / om - md.y * md.y, sm[2] / om - md.z * md.z,
+                                      sm[3] / om - md.x * md.y, sm[4] / om - md.x * md.z, sm[5] / om - md.y * md.z};
+                for (int k = 0; k < 6; ++k) p.cov[k] = float(cv[k]);
+            }
             for (int k = 0; k < 3; ++k) {
                 const float rest = px[k] * scale;
                 t.removed[k] = px[k] - rest;

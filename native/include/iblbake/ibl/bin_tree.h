@@ -11,21 +11,27 @@
 
 namespace iblbake {
 
-struct BinLevel {
-    int w = 0, h = 0;
+// One bin as the hierarchical sum reads it, in one cache line.
+struct alignas(64) BinNode {
     // Where the bin's radiance sits: m = integral of L w dOmega / integral of
     // L dOmega (channel sums), kept as its unit direction p and g = 1 - |m|,
     // so that 1 - n.m = g + (1 - g) |n - p|^2 / 2 without cancellation.
-    std::vector<float> px, py, pz, g;
+    float px, py, pz, g;
     // Power per channel: integral of L_c dOmega.
-    std::vector<float> power[3];
+    float power[3];
     // Covariance of w under the bin's radiance (channel sums), engine space:
-    // xx, yy, zz, xy, xz, yz. n^T C n is the variance of n.w over the bin,
-    // which the second-order rule needs.
-    std::vector<float> cov[6];
+    // xx, yy, zz, xy, xz, yz. n^T C n is the variance of n.w over the bin.
+    float cov[6];
     // Angular radius about p: the largest angle from p to the bin's corners
     // and edge midpoints (radians); negative for a bin with no radiance.
-    std::vector<float> radius;
+    float radius;
+    float unused[2];
+};
+static_assert(sizeof(BinNode) == 64, "a bin is one cache line");
+
+struct BinLevel {
+    int w = 0, h = 0;
+    std::vector<BinNode> nodes;
     size_t index(int x, int y) const { return size_t(y) * w + x; }
 };
 

@@ -62,8 +62,9 @@ Image remap_latlong(ImageView img, const std::array<double, 9>& a, const std::ar
 // (radiance times solid angle) per channel.
 struct RadiancePoint {
     float dir[3];       // centre direction
-    float mean_dir[3];  // (integral of w over the texel) / solid angle: |mean_dir| < 1
+    float mean_dir[3];  // (integral of w over the texel's hat) / its integral: |mean_dir| < 1
     float power[3];
+    float cov[6];       // covariance of w over the texel's hat (engine space: xx, yy, zz, xy, xz, yz)
 };
 
 // The split L = rest + hot. Every texel whose largest channel m exceeds the

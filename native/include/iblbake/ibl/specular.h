@@ -45,7 +45,7 @@ struct HierarchicalQuality {
     double eps = 0.4;  // a bin is used whole when its radius <= eps * the kernel's length scale there
     int tile = 8;       // output texels share one traversal per tile x tile block
     double finest_eps = 0.35;  // the finest bins' radius <= finest_eps * 2 alpha of the narrowest lobe
-    double horizon = 0.025;    // bins that may straddle a texel's horizon: radius <= horizon / sqrt(D(45 deg) / Z)
+    double horizon = 0.05;     // bins that may straddle a texel's horizon: radius <= eps horizon / sqrt(D(45 deg) / Z)
 };
 
 // Level for roughness r > 0 by a hierarchical (Barnes-Hut) kernel sum over a
@@ -60,5 +60,14 @@ struct HierarchicalQuality {
 // by eps, with no sampling noise and no clamping.
 // Returns the mean number of bins per texel.
 double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {});
+
+// The eps a level of this face size uses: q.eps from face 64 up, less below
+// (sqrt(face / 64), at least half): small levels are cheap and their wide
+// lobes the least forgiving of large bins.
+double hierarchical_level_eps(const HierarchicalQuality& q, int face);
+// The largest radius of a bin that may straddle a texel's horizon at this
+// roughness: level eps * horizon / sqrt(D(45 deg) / Z). The finest bins
+// should not exceed it.
+double hierarchical_horizon_radius(double roughness, int face, const HierarchicalQuality& q);
 
 }  // namespace iblbake
