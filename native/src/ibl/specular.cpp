@@ -1,6 +1,9 @@
 #include "iblbake/ibl/specular.h"
 
 #include <algorithm>
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 #include <cmath>
 
 #include "iblbake/ibl/parallel.h"
@@ -130,6 +133,8 @@ constexpr size_t kLanes = 16;  // independent partial sums: the loop vectorises,
 // not kept. Float lanes within blocks, double across.
 constexpr float kKurtosis = 1.5f;
 
+// With u = s / t, v = var u, cu = c u:
+//   E[k] = t^-2 [c + v (2 + 3 cu + kurt v u (4 + 5 cu))].
 void kernel_sums(const float* const* f, size_t count, float a2, const Vec3& n, double num[3]) {
     num[0] = num[1] = num[2] = 0.0;
     const float s = 1.0f - a2, twoa2 = 2.0f * a2;
@@ -138,6 +143,46 @@ void kernel_sums(const float* const* f, size_t count, float a2, const Vec3& n, d
     constexpr size_t kBlock = 512;
     for (size_t b = 0; b < count; b += kBlock) {
         const size_t e = std::min(count, b + kBlock);
+        float t0 = 0, t1 = 0, t2 = 0;
+#if defined(__AVX512F__)
+        // The same sum on 16 lanes, the reciprocal by rcp14 and one Newton
+        // step (within an ulp or two of the division).
+        __m512 a0 = _mm512_setzero_ps(), a1 = _mm512_setzero_ps(), a2v = _mm512_setzero_ps();
+        const __m512 vnx = _mm512_set1_ps(n.x), vny = _mm512_set1_ps(n.y), vnz = _mm512_set1_ps(n.z);
+        const __m512 one = _mm512_set1_ps(1.0f), half = _mm512_set1_ps(0.5f), two = _mm512_set1_ps(2.0f);
+        const __m512 vs = _mm512_set1_ps(s), vt2 = _mm512_set1_ps(twoa2), kurt = _mm512_set1_ps(kKurtosis);
+        const __m512 three = _mm512_set1_ps(3.0f), four = _mm512_set1_ps(4.0f), five = _mm512_set1_ps(5.0f);
+        for (size_t p = b; p < e; p += kLanes) {
+            const __m512 dx = _mm512_sub_ps(vnx, _mm512_loadu_ps(f[kPx] + p));
+            const __m512 dy = _mm512_sub_ps(vny, _mm512_loadu_ps(f[kPy] + p));
+            const __m512 dz = _mm512_sub_ps(vnz, _mm512_loadu_ps(f[kPz] + p));
+            const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
+            const __m512 g = _mm512_loadu_ps(f[kG] + p);
+            const __m512 omc = _mm512_fmadd_ps(_mm512_mul_ps(_mm512_sub_ps(one, g), half), d2, g);
+            const __m512 c = _mm512_sub_ps(one, omc);
+            __m512 var = _mm512_mul_ps(_mm512_loadu_ps(f[kCxx] + p), _mm512_set1_ps(nxx));
+            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCyy] + p), _mm512_set1_ps(nyy), var);
+            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCzz] + p), _mm512_set1_ps(nzz), var);
+            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCxy] + p), _mm512_set1_ps(nxy), var);
+            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCxz] + p), _mm512_set1_ps(nxz), var);
+            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCyz] + p), _mm512_set1_ps(nyz), var);
+            const __m512 t = _mm512_fmadd_ps(vs, omc, vt2);
+            __m512 it = _mm512_maskz_rcp14_ps(0xffff, t);  // (rcp14_ps trips -Wmaybe-uninitialized on GCC 12)
+            it = _mm512_mul_ps(it, _mm512_fnmadd_ps(t, it, two));
+            const __m512 u = _mm512_mul_ps(vs, it), v = _mm512_mul_ps(var, u), cu = _mm512_mul_ps(c, u);
+            const __m512 hi = _mm512_mul_ps(_mm512_mul_ps(kurt, _mm512_mul_ps(v, u)), _mm512_fmadd_ps(five, cu, four));
+            const __m512 inner = _mm512_add_ps(_mm512_fmadd_ps(three, cu, two), hi);
+            const __m512 k = _mm512_mul_ps(_mm512_mul_ps(it, it), _mm512_fmadd_ps(v, inner, c));
+            const __mmask16 lit = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_GT_OQ);
+            a0 = _mm512_mask3_fmadd_ps(k, _mm512_loadu_ps(f[kP0] + p), a0, lit);
+            a1 = _mm512_mask3_fmadd_ps(k, _mm512_loadu_ps(f[kP1] + p), a1, lit);
+            a2v = _mm512_mask3_fmadd_ps(k, _mm512_loadu_ps(f[kP2] + p), a2v, lit);
+        }
+        alignas(64) float s0[kLanes], s1[kLanes], s2[kLanes];
+        _mm512_store_ps(s0, a0);
+        _mm512_store_ps(s1, a1);
+        _mm512_store_ps(s2, a2v);
+#else
         float s0[kLanes] = {}, s1[kLanes] = {}, s2[kLanes] = {};
         for (size_t p = b; p < e; p += kLanes)
             for (size_t l = 0; l < kLanes; ++l) {
@@ -149,15 +194,14 @@ void kernel_sums(const float* const* f, size_t count, float a2, const Vec3& n, d
                 const float var = f[kCxx][q] * nxx + f[kCyy][q] * nyy + f[kCzz][q] * nzz + f[kCxy][q] * nxy +
                                   f[kCxz][q] * nxz + f[kCyz][q] * nyz;
                 const float it = 1.0f / (s * omc + twoa2);
-                const float v = var * s * it;
-                const float k = it * it * (c + v * (2.0f + 3.0f * c * s * it) +
-                                           kKurtosis * v * v * (4.0f * s * it + 5.0f * c * s * s * it * it));
+                const float u = s * it, v = var * u, cu = c * u;
+                const float k = it * it * (c + v * (2.0f + 3.0f * cu + kKurtosis * v * u * (4.0f + 5.0f * cu)));
                 const float kv = c > 0.0f ? k : 0.0f;
                 s0[l] += kv * f[kP0][q];
                 s1[l] += kv * f[kP1][q];
                 s2[l] += kv * f[kP2][q];
             }
-        float t0 = 0, t1 = 0, t2 = 0;
+#endif
         for (size_t l = 0; l < kLanes; ++l) {
             t0 += s0[l];
             t1 += s1[l];
