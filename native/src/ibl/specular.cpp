@@ -53,10 +53,43 @@ std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQu
 }
 
 void specular_mirror(Cubemap& dst, ImageView latlong) {
-    const int n = dst.size;
+    const int n = dst.size, w = latlong.width, h = latlong.height;
     parallel_for(0, 6 * n, [&](int row) {
         const int f = row / n, j = row % n;
-        for (int i = 0; i < n; ++i) latlong_bilinear(latlong, texel_direction(f, i, j, n), dst.at(f, i, j));
+        // latlong_bilinear for a whole row: the lat-long coordinates first,
+        // in one loop that vectorises (atan2_vec), then the lookups.
+        thread_local std::vector<double> fx, fy;
+        fx.resize(n);
+        fy.resize(n);
+        const FaceFrame& fr = kFaceFrames[f];
+        const double b = 2.0 * (j + 0.5) / n - 1.0;
+        for (int i = 0; i < n; ++i) {
+            const double a = 2.0 * (i + 0.5) / n - 1.0;
+            const double ex = fr.ma.x + fr.s.x * a + fr.t.x * b, ey = fr.ma.y + fr.s.y * a + fr.t.y * b,
+                         ez = fr.ma.z + fr.s.z * a + fr.t.z * b;
+            // Blender (x, y, z) = (ex, -ez, ey); the length cancels in both angles.
+            const double bx = ex, by = -ez, bz = ey;
+            const double u = 0.5 - atan2_vec(by, bx) * (0.5 / kPi);
+            const double v = 0.5 + atan2_vec(bz, std::sqrt(bx * bx + by * by)) * (1.0 / kPi);
+            fx[i] = (u - std::floor(u)) * w - 0.5;
+            fy[i] = (1.0 - v) * h - 0.5;
+        }
+        for (int i = 0; i < n; ++i) {
+            const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
+            const double tx = fx[i] - x0f, ty = fy[i] - y0f;
+            int x0 = int(x0f) % w;
+            if (x0 < 0) x0 += w;
+            const int x1 = (x0 + 1) % w;
+            const int y0 = std::clamp(int(y0f), 0, h - 1), y1 = std::clamp(int(y0f) + 1, 0, h - 1);
+            const float *pa = latlong.at(x0, y0), *pb = latlong.at(x1, y0), *pc = latlong.at(x0, y1),
+                        *pd = latlong.at(x1, y1);
+            float* o = dst.at(f, i, j);
+            for (int k = 0; k < 3; ++k) {
+                const double top = pa[k] + (pb[k] - pa[k]) * tx;
+                const double bottom = pc[k] + (pd[k] - pc[k]) * tx;
+                o[k] = float(top + (bottom - top) * ty);
+            }
+        }
     });
 }
 
