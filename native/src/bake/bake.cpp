@@ -318,9 +318,9 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             const int bw = o.irradiance_bins, bh = o.irradiance_bins / 2;
             if (irr_from_tree) remove_hot(irr_bins, bw, bh, integrand.width, integrand.height, split);
             else irr_bins = reduce_rest_to_bins(integrand, split, bw, bh);
-            const VectorCloud cloud = vector_cloud(irr_bins);
+            const BinGroups groups = group_bins(irr_bins, bw, bh);
             Cubemap irr(o.irradiance_size);
-            irradiance_convolve(irr, cloud, split.hot, o.irradiance_exact_face);
+            irradiance_convolve(irr, groups, split.hot, o.irradiance_exact_face);
             finished(irr.pixels);
             r.irradiance = std::move(irr);
             if (sink) sink->cube("irradiance", *r.irradiance);

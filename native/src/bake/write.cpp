@@ -132,7 +132,9 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     m["mean_radiance"] = r.mean_radiance;
     m["integration_grid"] = {{"width", r.integration_width},
                              {"height", r.integration_height},
-                             {"note", "sources coarser than this are resampled from the bilinear L (SPEC 1) onto it"}};
+                             {"note", "the grid the hot split and, with specular_method fis, the rest cube read; "
+                                      "sources under 512 across are resampled from the bilinear L (SPEC 1) onto it "
+                                      "for fis only (the hierarchical bins integrate L exactly)"}};
     m["hot_texels"] = {{"count", r.hot_texels},
                        {"threshold", r.hot_threshold},
                        {"power_fraction", r.hot_power_fraction}};

@@ -295,14 +295,6 @@ Image rest_image(ImageView img, const HotSplit& split) {
     return rest;
 }
 
-void VectorCloud::add(const float dir[3], const float power[3]) {
-    for (int c = 0; c < 3; ++c) {
-        x[c].push_back(dir[0] * power[c]);
-        y[c].push_back(dir[1] * power[c]);
-        z[c].push_back(dir[2] * power[c]);
-    }
-}
-
 BinReduction::BinReduction(ImageView img, int bw, int bh)
     : img_(img), bw_(std::max(1, bw)), bh_(std::max(1, bh)) {
     cols_ = hat_pieces_lon(img.width, bw_);
@@ -430,19 +422,6 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
                     add_bins(out[size_t(y) * w + x], bins[size_t(2 * y + dy) * bw + 2 * x + dx]);
     });
     return out;
-}
-
-VectorCloud vector_cloud(const std::vector<Bin>& bins) {
-    VectorCloud cloud;
-    for (const Bin& b : bins) {
-        if (b.power[0] == 0.0 && b.power[1] == 0.0 && b.power[2] == 0.0) continue;
-        for (int c = 0; c < 3; ++c) {
-            cloud.x[c].push_back(float(b.vector[c][0]));
-            cloud.y[c].push_back(float(b.vector[c][1]));
-            cloud.z[c].push_back(float(b.vector[c][2]));
-        }
-    }
-    return cloud;
 }
 
 std::array<Sh9, 3> project_sh9(ImageView img) {

@@ -126,18 +126,6 @@ std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int b
 // Takes the hot texels' gifts out of bw x bh bins of an img_w x img_h image.
 void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, const HotSplit& split);
 
-// "Vector power" of the bins, per channel c: V_c = integral of L_c w dOmega.
-// For a normal n that sees a whole bin from its lit side,
-// integral of L_c max(0, n.w) dOmega = n.V_c exactly, which makes the cloud an
-// exact cosine integrator except for the few bins that straddle n's horizon.
-// Stored structure-of-arrays for the hot loop.
-struct VectorCloud {
-    std::vector<float> x[3], y[3], z[3];
-    size_t size() const { return x[0].size(); }
-    void add(const float dir[3], const float power[3]);
-};
-VectorCloud vector_cloud(const std::vector<Bin>& bins);
-
 // Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5):
 // every texel's exact basis integral (texel-constant radiance), in double.
 std::array<Sh9, 3> project_sh9(ImageView img);
