@@ -11,6 +11,7 @@ Exits 1 with the reason on stderr when any bake fails (a batch bakes the
 others first); an earlier bake in a folder survives a failed one.
 """
 import argparse
+import math
 import os
 import sys
 import time
@@ -44,6 +45,39 @@ def count(text):
     return v
 
 
+def finite(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("must be a finite number, got %r" % text)
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError("must be a finite number, got %s" % text)
+    return v
+
+
+# Options checked by the native module exactly as the CLI checks them, before
+# they reach Blender's properties (which would clamp them silently).
+NATIVE_CHECKED = (("face_size", "face_size"), ("irradiance_size", "irradiance_size"), ("mips", "mip_count"),
+                  ("lut_size", "lut_size"), ("exposure", "exposure"))
+
+
+def check_native_options(args):
+    import importlib
+    package = bpy.types.IBLBAKE_OT_bake.__module__.rsplit(".", 1)[0]  # "iblbake" or "bl_ext.<repo>.iblbake"
+    native = importlib.import_module(package + ".core.native")
+    settings = importlib.import_module(package + ".core.settings")
+    opts = {name: getattr(args, arg) for arg, name in NATIVE_CHECKED if getattr(args, arg) is not None}
+    try:
+        native.load().check_options(**opts)
+        s = settings.BakeSettings(out_dir=args.out)
+        for arg in ("render_width", "render_samples"):
+            if getattr(args, arg) is not None:
+                setattr(s, arg, getattr(args, arg))
+        s.validate()
+    except ValueError as e:
+        raise Usage(str(e))
+
+
 def parse_args(argv):
     p = Parser(prog="bake_world.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", required=True, help="output folder (a batch: the parent of one folder per input)")
@@ -58,17 +92,24 @@ def parse_args(argv):
     p.add_argument("--lut-model", choices=["karis", "height-correlated", "multiscatter"])
     p.add_argument("--format", default=None, help="exr, png or exr,png (default exr)")
     p.add_argument("--png-encoding", choices=["srgb", "rgbm"])
-    p.add_argument("--exposure", type=float, help="PNG exposure in stops")
+    p.add_argument("--exposure", type=finite, help="PNG exposure in stops")
     p.add_argument("--render-width", type=positive, help="Cycles lat-long width for procedural worlds (default 1024)")
     p.add_argument("--render-samples", type=positive, help="Cycles samples for procedural worlds (default 16)")
-    p.add_argument("--strength", type=float, default=1.0, help="--hdri/--batch images: Background Strength")
-    p.add_argument("--rotation-z", type=float, default=0.0, help="--hdri/--batch images: Mapping rotation, degrees")
+    p.add_argument("--strength", type=finite, default=1.0, help="--hdri/--batch images: Background Strength")
+    p.add_argument("--rotation-z", type=finite, default=0.0, help="--hdri/--batch images: Mapping rotation, degrees")
     p.add_argument("--no-irradiance", action="store_true")
     p.add_argument("--no-specular", action="store_true")
     p.add_argument("--no-lut", action="store_true")
     p.add_argument("--no-auto-skip", action="store_true", help="bake everything, whatever the materials use")
     p.add_argument("--force", action="store_true", help="bake even when nothing changed since the last bake")
-    return p.parse_args(argv)
+    p.add_argument("--preset", action="append", metavar="NAME",
+                   help="engine preset, written into OUT/NAME (repeat or comma-separate): three, khronos, bevy, "
+                        "filament, babylon, unity, source; NAME:FORMAT picks a pixel format (docs/export.md). "
+                        "Replaces the presets chosen in the scene")
+    args = p.parse_args(argv)
+    if args.preset is not None:
+        args.preset = [n.strip() for item in args.preset for n in item.split(",") if n.strip()]
+    return args
 
 
 def load_addon():
@@ -139,8 +180,9 @@ def bake_scene(args, out_dir: str, image=None):
     if image is not None:
         scene.world = hdri_world(image, args.strength, args.rotation_z)
     configure(scene, args, out_dir, image is not None)
+    override = {} if args.preset is None else {"override_presets": True, "presets": ",".join(args.preset)}
     with bpy.context.temp_override(scene=scene):
-        result = bpy.ops.iblbake.bake()
+        result = bpy.ops.iblbake.bake(**override)
     if "FINISHED" not in result:
         raise RuntimeError(scene.iblbake.last_error or "the bake did not finish")
     print("iblbake: %s" % scene.iblbake.last_status, flush=True)
@@ -162,6 +204,7 @@ def batch_folders(items, out):
 def main(argv):
     args = parse_args(argv)
     load_addon()
+    check_native_options(args)
     failures = []
     if args.batch:
         for item, out in batch_folders(args.batch, args.out):

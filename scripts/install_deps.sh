@@ -25,11 +25,19 @@ fi
 BUILD=(build-essential cmake pkg-config ca-certificates git)
 LIBS=(libopenimageio-dev openimageio-tools libopenexr-dev libpng-dev libtbb-dev
       nlohmann-json3-dev libssl-dev libcli11-dev)
+HOSTILE=(libjpeg-dev)  # JPEG read with libjpeg directly (issue 15)
 PYTHON=(python3-dev python3-numpy pybind11-dev)
 TESTS=(libgtest-dev libgmock-dev libbenchmark-dev python3-pytest python3-matplotlib time)
 BLENDER=(blender blender-data)
+GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
+EXPORT=(libzstd-dev python3-zstandard)
+# Engine tests: Debian's chromium (headless, SwiftShader); node and npm from
+# Debian unless an npm is already on PATH (nodesource's nodejs ships its own
+# npm and conflicts with Debian's npm package).
+BROWSER=(chromium)
+command -v npm >/dev/null 2>&1 || BROWSER+=(nodejs npm)
 
-PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}")
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${HOSTILE[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${GUI[@]}" "${EXPORT[@]}" "${BROWSER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

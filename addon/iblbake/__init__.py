@@ -22,10 +22,12 @@ if bpy is not None:
     if "operators" in locals():  # F8 / script reload: re-import the submodules
         import importlib
         for _m in (core.settings, core.needs, core.world, core.native, core.pipeline, core.job,  # noqa: F821
-                   properties, preferences, world_reader, scene_needs, operators, panel):  # noqa: F821
+                   core.describe, state, properties, preferences, world_reader, scene_needs,  # noqa: F821
+                   operators, panel):  # noqa: F821
             importlib.reload(_m)
     from . import core  # noqa: F401
-    from . import operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
+    from .core import describe  # noqa: F401
+    from . import state, operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
 
     _CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
     _HANDLERS = operators.HANDLERS + panel.HANDLERS
@@ -43,6 +45,7 @@ def unregister():
     for handlers, fn in reversed(_HANDLERS):
         if fn in handlers:
             handlers.remove(fn)
+    panel.free_previews()
     properties.unregister_props()
     for cls in reversed(_CLASSES):
         bpy.utils.unregister_class(cls)

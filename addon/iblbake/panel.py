@@ -1,16 +1,19 @@
-"""World Properties > Image-Based Lighting: what will be baked, and the button."""
+"""World Properties > Image-Based Lighting: how the world is read, where the
+files go, what will be baked (in words), the button - or, while a bake runs,
+its progress bar with a Cancel button - and the last bake's files and preview."""
 import bpy
 from bpy.app.handlers import persistent
 
-from . import operators, preferences, world_reader
-from .core.world import COLOR, IMAGE, RENDER
+from . import operators, preferences, state, world_reader
+from .core import describe
+from .core.world import COLOR, IMAGE
 
 
 def _world_line(scene):
     try:
         src = world_reader.classify(scene.world)
     except world_reader.WorldError as e:
-        return "ERROR", str(e)
+        return "ERROR", str(e)[0].upper() + str(e)[1:]
     if src.path == IMAGE:
         extra = []
         if src.mapping is not None and not src.mapping.is_identity():
@@ -20,8 +23,8 @@ def _world_line(scene):
             extra.append("strength %.3g" % src.strength)
         return "IMAGE_DATA", "Image %s%s" % (src.image_name, (" (" + ", ".join(extra) + ")") if extra else "")
     if src.path == COLOR:
-        return "COLOR", "Plain colour (%.3g, %.3g, %.3g): closed form" % tuple(src.color)
-    return "RENDER_STILL", "Cycles render: %s" % src.why
+        return "COLOR", "Plain color (%.3g, %.3g, %.3g): baked exactly" % tuple(src.color)
+    return "RENDER_STILL", "Rendered by Cycles: %s" % src.why
 
 
 # The scene analysis, kept between redraws until the scene changes (a redraw
@@ -34,38 +37,130 @@ def _forget_needs(*_args):
     _needs_cache.clear()
 
 
-def _needs_lines(context, scene):
-    key = (scene.name, scene.iblbake.use_scene_options, scene.iblbake.face_size, scene.iblbake.mip_count,
-           scene.iblbake.output_dir)
+def _options(context, scene):
+    prefs = preferences.get(context)
+    return scene.iblbake if (scene.iblbake.use_scene_options or prefs is None) else prefs
+
+
+def _plan_lines(context, scene):
+    """(sentences about what is baked, resolved folder or None, folder error)."""
+    props = scene.iblbake
+    opts = _options(context, scene)
+    key = (scene.name, props.use_scene_options, opts.face_size, opts.mip_count, props.output_dir, props.auto_skip,
+           tuple(operators.engine_names(opts)), bpy.data.filepath, scene.world.name if scene.world else None)
     if key not in _needs_cache:
-        _needs_cache[key] = _compute_needs_lines(context, scene)
+        _needs_cache[key] = _compute_plan_lines(context, scene)
     return _needs_cache[key]
 
 
-def _compute_needs_lines(context, scene):
+def _compute_plan_lines(context, scene):
+    from .core.settings import BakeSettings
+    folder, folder_error = None, ""
     try:
         settings = operators.gather_settings(context, scene)
-    except Exception as e:  # e.g. no folder yet: still show what the scene needs
-        settings = None
-        folder = str(e)
-    else:
         folder = settings.out_dir
-    from .core.settings import BakeSettings
-    s = settings or BakeSettings()
-    needs = operators.scene_needs_for(scene, s)
-    lines = []
-    if not needs.analysed:
-        lines.append(("INFO", "No visible surfaces: everything is baked"))
-    else:
-        lines.append(("CHECKMARK" if needs.irradiance else "X", "Irradiance" if needs.irradiance
-                      else "No irradiance: " + needs.reasons.get("irradiance", "")))
-        if needs.specular:
-            lo, hi = needs.roughness
-            lines.append(("CHECKMARK", "Specular levels %d-%d of %d (roughness %.2f-%.2f)"
-                          % (needs.levels[0], needs.levels[1], s.resolved_mip_count() - 1, lo, hi)))
+    except Exception as e:  # e.g. a //folder in an unsaved file: the panel says so
+        settings = BakeSettings()
+        opts = _options(context, scene)
+        settings.face_size, settings.mip_count = opts.face_size, opts.mip_count
+        settings.presets = operators.engine_names(opts)
+        folder_error = str(e)
+    needs = operators.scene_needs_for(scene, settings) if scene.iblbake.auto_skip else None
+    from .core.needs import Needs
+    lines = describe.needs_sentences(needs or Needs(), settings.resolved_mip_count(), scene.iblbake.auto_skip,
+                                     tuple(settings.presets))
+    return lines, folder, folder_error
+
+
+def _max_chars(context):
+    """How many characters of a label fit the panel's width (an estimate)."""
+    scale = context.preferences.view.ui_scale
+    width = context.region.width if context.region else 300
+    return int((width - 60 * scale) / (6.3 * scale))
+
+
+def _draw_progress(layout, context):
+    run = state.RUN
+    split = layout.split(factor=0.75, align=True)
+    split.scale_y = 1.4
+    if hasattr(split, "progress"):  # Blender 4.0+
+        split.progress(factor=run.fraction, type="BAR", text="%s  %d%%" % (run.stage, int(100 * run.fraction)))
+    else:  # 3.x: a read-only percentage property drawn as a slider
+        split.prop(context.window_manager, "iblbake_progress", text=run.stage, slider=True)
+    split.operator(operators.IBLBAKE_OT_cancel.bl_idname, text="Cancel", icon="CANCEL")
+
+
+STATUS_ICONS = {"INFO": "CHECKMARK", "CANCEL": "CANCEL", "ERROR": "ERROR"}
+
+
+def _draw_last(layout, context, last):
+    if not last.status:
+        return
+    if state.RUN is None:  # while a bake runs, its bar says what is going on
+        col = layout.column(align=True)
+        for i, line in enumerate(_wrap(last.status, _max_chars(context))):
+            col.label(text=line, icon=STATUS_ICONS.get(last.kind, "INFO") if i == 0 else "BLANK1")
+    if last.files:
+        box = layout.box()
+        col = box.column(align=True)
+        col.label(text="%d files, %s" % (len(last.files), describe.human_size(last.total_bytes)), icon="FILE")
+        for name, size in describe.grouped_files(last.files):
+            row = col.row()
+            row.label(text=name, icon="BLANK1")
+            row.label(text=describe.human_size(size))
+    if last.preview:
+        box = layout.box()
+        icon = _preview_icon(last)
+        if icon:
+            # A square of up to 256 pixels (the thumbnail's width), as the panel's width allows.
+            scale = context.preferences.view.ui_scale
+            width = context.region.width if context.region else 300
+            box.template_icon(icon_value=icon, scale=max(4.0, min(width - 40 * scale, 256 * scale) / (20.0 * scale)))
+        box.operator(operators.IBLBAKE_OT_open_preview.bl_idname, icon="IMAGE_DATA")
+
+
+# The preview sheet's thumbnail (made by the bake's worker thread) as a custom
+# preview: setting its pixels is quick; nothing is read on the main thread.
+_previews = None
+
+
+def _preview_icon(last):
+    global _previews
+    thumb = last.thumbnail
+    if thumb is None:
+        return 0
+    key = "%s:%d" % (last.preview, id(thumb))
+    if _previews is None:
+        import bpy.utils.previews
+        _previews = bpy.utils.previews.new()
+    if key not in _previews:
+        _previews.clear()
+        item = _previews.new(key)
+        item.image_size = (thumb.shape[1], thumb.shape[0])
+        item.image_pixels_float.foreach_set(thumb.reshape(-1))
+    return _previews[key].icon_id
+
+
+def free_previews():
+    global _previews
+    if _previews is not None:
+        import bpy.utils.previews
+        bpy.utils.previews.remove(_previews)
+        _previews = None
+
+
+def _wrap(text, width):
+    """Words in lines of at most `width` characters (labels do not wrap by themselves)."""
+    lines, line = [], ""
+    for word in text.split(" "):
+        if line and len(line) + 1 + len(word) > width:
+            lines.append(line)
+            line = word
         else:
-            lines.append(("X", "No specular: " + needs.reasons.get("specular", "")))
-    return lines, folder
+            line = (line + " " + word) if line else word
+    if line:
+        lines.append(line)
+    return [describe.shorten_middle(ln, width) for ln in lines] or [""]
 
 
 class IBLBAKE_PT_world(bpy.types.Panel):
@@ -83,39 +178,54 @@ class IBLBAKE_PT_world(bpy.types.Panel):
         layout = self.layout
         scene = context.scene
         props = scene.iblbake
+        width = _max_chars(context)
         icon, text = _world_line(scene)
-        layout.label(text=text, icon=icon)
-        layout.prop(props, "output_dir")
+        for i, line in enumerate(_wrap(text, width)):
+            layout.label(text=line, icon=icon if i == 0 else "BLANK1")
+        if scene.world is None:  # nothing to bake: the line above says what to do
+            return
+
+        lines, folder, folder_error = _plan_lines(context, scene)
+        col = layout.column(align=True)
+        col.label(text="Output Folder")
+        try:  # Blender 4.1+: the folder used while the field is empty, greyed inside it
+            col.prop(props, "output_dir", text="", placeholder=operators.output_template(context, scene))
+        except TypeError:
+            col.prop(props, "output_dir", text="")
+        if folder:
+            col.label(text=describe.shorten_middle(folder, width), icon="FILE_FOLDER")
+        else:
+            for i, line in enumerate(_wrap(folder_error, width)):
+                col.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
 
         box = layout.box()
-        box.prop(props, "auto_skip")
+        box.label(text="Bake For")
+        box.column(align=True).prop(props, "bake_for", expand=True)
+        col = box.column(align=True)
+        for line in lines:
+            for i, part in enumerate(_wrap(line, width - 2)):
+                col.label(text=part, icon="INFO" if i == 0 else "BLANK1")
         row = box.row(align=True)
         row.prop(props, "bake_irradiance", toggle=True)
         row.prop(props, "bake_specular", toggle=True)
         row.prop(props, "bake_lut", toggle=True)
-        if props.auto_skip:
-            lines, folder = _needs_lines(context, scene)
-            col = box.column(align=True)
-            for ic, t in lines:
-                col.label(text=t, icon=ic)
-        else:
-            folder = ""
-        if folder:
-            layout.label(text="-> " + folder, icon="FILE_FOLDER")
+        preferences.draw_engines(box, _options(context, scene))
 
         layout.prop(props, "use_scene_options")
         if props.use_scene_options or preferences.get(context) is None:
             sub = layout.column()
             sub.use_property_split = True
-            preferences.draw_options(sub, props)
+            preferences.draw_options(sub, props, engines=False)
         layout.prop(props, "force")
 
-        row = layout.row()
-        row.scale_y = 1.4
-        row.operator(operators.IBLBAKE_OT_bake.bl_idname, icon="WORLD")
-        row.operator(operators.IBLBAKE_OT_open_output.bl_idname, text="", icon="FILEBROWSER")
-        if props.last_status:
-            layout.label(text=props.last_status, icon="ERROR" if props.last_error else "INFO")
+        if state.RUN is not None:
+            _draw_progress(layout, context)
+        else:
+            row = layout.row(align=True)
+            row.scale_y = 1.4
+            row.operator(operators.IBLBAKE_OT_bake.bl_idname, icon="WORLD")
+            row.operator(operators.IBLBAKE_OT_open_output.bl_idname, text="", icon="FILEBROWSER")
+        _draw_last(layout, context, state.last(scene.name))
 
 
 classes = (IBLBAKE_PT_world,)

@@ -2,7 +2,7 @@
 import bpy
 from bpy.props import StringProperty
 
-from .properties import BakeOptionProps
+from .properties import ENGINE_ITEMS, BakeOptionProps
 
 ADDON_ID = __package__  # "iblbake", or "bl_ext.<repo>.iblbake" as a 4.2+ extension
 
@@ -27,8 +27,27 @@ class IBLBAKE_AddonPreferences(BakeOptionProps, bpy.types.AddonPreferences):
         draw_options(layout, self)
 
 
-def draw_options(layout, props):
+def engine_ids():
+    """The engine presets' names, in the table's order."""
+    return [item[0] for item in ENGINE_ITEMS]
+
+
+def draw_engines(layout, props):
+    """The engine presets as toggles (several may be ticked)."""
+    if not ENGINE_ITEMS:
+        return
+    col = layout.column(align=True)
+    col.label(text="Also Export For")
+    for start in range(0, len(ENGINE_ITEMS), 4):
+        row = col.row(align=True)
+        for name, label, _desc, _bit in ENGINE_ITEMS[start:start + 4]:
+            row.prop_enum(props, "engines", name, text=label)
+
+
+def draw_options(layout, props, engines=True):
     """The shared options, as the preferences and the World panel show them."""
+    if engines:
+        draw_engines(layout, props)
     col = layout.column(align=True)
     col.prop(props, "face_size")
     col.prop(props, "mip_count")
@@ -39,6 +58,7 @@ def draw_options(layout, props):
     row = layout.row(heading="Formats")
     row.prop(props, "write_exr")
     row.prop(props, "write_png")
+    row.prop(props, "write_preview")
     if props.write_png:
         layout.prop(props, "png_encoding")
         layout.prop(props, "exposure")

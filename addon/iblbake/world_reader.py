@@ -6,7 +6,11 @@ Background with an unlinked colour is a plain colour; anything else is
 rendered by Cycles to a lat-long and that image is baked."""
 import math
 import os
+import re
+import shutil
+import subprocess
 import tempfile
+import threading
 
 import bpy
 import numpy as np
@@ -17,6 +21,16 @@ from .core.world import COLOR, IMAGE, RENDER, Mapping, WorldSource
 
 class WorldError(Exception):
     """The world cannot be read (a missing image file, ...): the message says why."""
+
+
+NO_WORLD = ("this scene has no world, so there is no lighting to bake: add one in World Properties "
+            "(New), or pick an existing world there")
+
+
+def ui_name(node) -> str:
+    """A node as Blender's UI names it ("a Sky Texture node"), muted ones said so."""
+    words = ("muted " if node.mute else "") + (node.bl_label or node.bl_idname) + " node"
+    return ("an " if words[0].lower() in "aeiou" else "a ") + words
 
 
 def _linked_node(sock):
@@ -53,11 +67,13 @@ def _constant(sock):
     return not sock.is_linked
 
 
-def classify(world) -> WorldSource:
-    """What the node tree is, without reading pixels or rendering."""
+def classify(world, check_image: bool = False) -> WorldSource:
+    """What the node tree is, without reading pixels or rendering. With
+    check_image (the bake does this; a panel's draw need not load the file),
+    an Environment Texture whose image Blender cannot load raises WorldError."""
     name = world.name if world else None
     if world is None:
-        return WorldSource(RENDER, "the scene has no world", world=None)
+        raise WorldError(NO_WORLD)
     if not world.use_nodes or world.node_tree is None:
         return WorldSource(COLOR, world=name, color=tuple(world.color))
     out = _active_output(world.node_tree)
@@ -68,7 +84,7 @@ def classify(world) -> WorldSource:
         return WorldSource(COLOR, "nothing linked to the World Output: black", world=name, color=(0.0, 0.0, 0.0))
     bg, _ = found
     if bg.bl_idname != "ShaderNodeBackground" or bg.mute:
-        return WorldSource(RENDER, "the World Output is fed by a %s node" % bg.bl_idname, world=name)
+        return WorldSource(RENDER, "the World Output is fed by %s" % ui_name(bg), world=name)
     strength_sock, color_sock = bg.inputs["Strength"], bg.inputs["Color"]
     if not _constant(strength_sock):
         return WorldSource(RENDER, "Background Strength is linked", world=name)
@@ -80,7 +96,7 @@ def classify(world) -> WorldSource:
                            strength=strength)
     env, env_out = found
     if env.bl_idname != "ShaderNodeTexEnvironment" or env.mute or env_out.name != "Color":
-        return WorldSource(RENDER, "Background Color is fed by %s" % env.bl_idname, world=name)
+        return WorldSource(RENDER, "the Background's Color is fed by %s" % ui_name(env), world=name)
     if env.projection != "EQUIRECTANGULAR":
         return WorldSource(RENDER, "Environment Texture projection %s" % env.projection, world=name)
     img = env.image
@@ -88,6 +104,14 @@ def classify(world) -> WorldSource:
         raise WorldError("the world's Environment Texture '%s' has no image" % env.name)
     if img.source not in ("FILE", "GENERATED"):
         return WorldSource(RENDER, "image source %s" % img.source, world=name)
+    # Before any fallback: an image Blender cannot load would render as its
+    # missing-texture magenta, and that must never become a bake.
+    # Without check_image (the UI's click, which must not load an 8K file on
+    # the main thread) the cheap signs still count: a missing file, or an
+    # image Blender already failed to load (no color space).
+    why_not = _unreadable(img) if check_image else _unreadable_cheap(img)
+    if why_not:
+        raise WorldError("the world's image '%s' cannot be read: %s" % (img.name, why_not))
     mapping, why = _mapping(env.inputs["Vector"])
     if why:
         return WorldSource(RENDER, why, world=name)
@@ -101,6 +125,32 @@ def classify(world) -> WorldSource:
     except ValueError as e:
         return WorldSource(RENDER, str(e), world=name)
     return src
+
+
+def _unreadable_cheap(img):
+    """Why an image cannot be read, from what Blender knows without loading it."""
+    if img.source != "FILE":
+        return ""
+    path = os.path.abspath(bpy.path.abspath(img.filepath, library=img.library)) if img.filepath else ""
+    if img.packed_file is None and path and not os.path.isfile(path):
+        return "no file at %s" % path
+    if not img.colorspace_settings.name:
+        return "Blender could not load %s (not an image, or a format it does not read)" % (path or "the packed file")
+    return ""
+
+
+def _unreadable(img):
+    """Why Blender has no pixels for a file image ('' when it has them)."""
+    cheap = _unreadable_cheap(img)
+    if cheap or img.source != "FILE":
+        return cheap
+    path = os.path.abspath(bpy.path.abspath(img.filepath, library=img.library)) if img.filepath else ""
+    if img.has_data:
+        return ""
+    w, h = img.size  # loads the file
+    if w > 0 and h > 0:
+        return ""
+    return "Blender could not load %s (not an image, or a format it does not read)" % (path or "the packed file")
 
 
 def _is_float(img, path):
@@ -119,12 +169,12 @@ def _mapping(vector_sock):
     if node.bl_idname == "ShaderNodeTexCoord" and out.name == "Generated":
         return None, ""
     if node.bl_idname != "ShaderNodeMapping":
-        return None, "the Environment Texture's Vector comes from %s" % node.bl_idname
+        return None, "the Environment Texture's Vector comes from %s" % ui_name(node)
     src = _linked_node(node.inputs["Vector"])
     if src is None:
         return None, "the Mapping node's Vector is unlinked (a constant lookup)"
     if not (src[0].bl_idname == "ShaderNodeTexCoord" and src[1].name == "Generated"):
-        return None, "the Mapping node's Vector comes from %s" % src[0].bl_idname
+        return None, "the Mapping node's Vector comes from %s" % ui_name(src[0])
     if node.mute:  # passes the vector through
         return None, ""
     vals = {}
@@ -143,8 +193,28 @@ class NeedsRender(Exception):
     """The image's pixels are not what Cycles shows (e.g. straight alpha)."""
 
 
+def alpha_matters(img, colorspace: str) -> bool:
+    """Whether Cycles multiplies the colour by the image's alpha (straight or
+    premultiplied alpha of a colour image)."""
+    return img.alpha_mode not in ("CHANNEL_PACKED", "NONE") and colorspace not in ("Non-Color", "Raw")
+
+
+def file_read_plan(src: WorldSource):
+    """(path, alpha matters) when the Environment Texture's pixels can be
+    read from its file off the main thread (core.world.read_file_pixels),
+    else None: Blender's own buffer is read (a packed, generated or edited
+    image). Raises WorldError for a missing file."""
+    img = bpy.data.images[src.image_name]
+    if src.image_path and not os.path.isfile(src.image_path):
+        raise WorldError("the world's image '%s' cannot be read: no file at %s" % (img.name, src.image_path))
+    if not src.image_path or img.is_dirty:
+        return None
+    return src.image_path, alpha_matters(img, src.colorspace)
+
+
 def read_image_pixels(src: WorldSource):
-    """The Environment Texture's radiance, (H, W, 3) float32 rows top-down."""
+    """The Environment Texture's radiance from Blender's buffer, (H, W, 3)
+    float32 rows top-down (main thread: one foreach_get of the whole image)."""
     img = bpy.data.images[src.image_name]
     if src.image_path and not os.path.isfile(src.image_path):
         raise WorldError("the world's image '%s' cannot be read: no file at %s" % (img.name, src.image_path))
@@ -160,8 +230,7 @@ def read_image_pixels(src: WorldSource):
     flat = np.empty(w * h * 4, dtype=np.float32)
     img.pixels.foreach_get(flat)
     # Cycles multiplies the colour by a straight alpha below 1: leave that to it.
-    if (img.alpha_mode not in ("CHANNEL_PACKED", "NONE") and src.colorspace not in ("Non-Color", "Raw")
-            and float(flat[3::4].min()) < 1.0):
+    if alpha_matters(img, src.colorspace) and float(flat[3::4].min()) < 1.0:
         raise NeedsRender("the image has alpha below 1")
     from .core.world import prepare_pixels
     return prepare_pixels(src, flat, w, h, remap=native.load().remap_latlong)
@@ -196,18 +265,17 @@ def lighting_copy(world):
     return copy, notes
 
 
-def render_world(world, width: int, samples: int, frame: int = 1):
-    """The world as it lights the scene (lighting_copy), as a (width/2,
-    width, 3) float32 lat-long (SPEC.md section 1's layout), rendered by
+def render_world_to_file(world, width: int, samples: int, frame: int, path: str):
+    """Renders the world as it lights the scene (lighting_copy) into `path`,
+    a (width/2, width) float EXR lat-long (SPEC.md section 1's layout), with
     Cycles in a scratch scene with nothing in it at `frame` (box pixel
-    filter: each pixel is its texel's mean). Blocks until done. Returns
-    (pixels, notes on what lighting_copy changed)."""
+    filter: each pixel is its texel's mean). Blocks until done (the UI runs
+    it in a child Blender instead: render_child.py). Returns notes on what
+    lighting_copy changed."""
     scene = bpy.data.scenes.new("iblbake render")
     scene.frame_current = frame
     cam_data = bpy.data.cameras.new("iblbake pano")
     cam = bpy.data.objects.new("iblbake pano", cam_data)
-    tmp = tempfile.mkdtemp(prefix="iblbake-render-")
-    path = os.path.join(tmp, "world.exr")
     lit, notes = None, []
     try:
         if world is not None:
@@ -242,36 +310,137 @@ def render_world(world, width: int, samples: int, frame: int = 1):
         bpy.ops.render.render(write_still=True, scene=scene.name)
         if not os.path.isfile(path):
             raise WorldError("Cycles did not render the world")
-        return native.load().read_image(path), notes
+        return notes
     finally:
         bpy.data.objects.remove(cam)
         bpy.data.cameras.remove(cam_data)
         bpy.data.scenes.remove(scene)
         if lit is not None:
             bpy.data.worlds.remove(lit)
-        for f in os.listdir(tmp):
-            os.remove(os.path.join(tmp, f))
-        os.rmdir(tmp)
+
+
+def render_world(world, width: int, samples: int, frame: int = 1):
+    """render_world_to_file in this process, read back: ((width/2, width, 3)
+    float32 lat-long, notes)."""
+    tmp = tempfile.mkdtemp(prefix="iblbake-render-")
+    path = os.path.join(tmp, "world.exr")
+    try:
+        notes = render_world_to_file(world, width, samples, frame, path)
+        return native.load().read_image(path), notes
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def render_settings(scene, render_width: int, render_samples: int):
+    """(src.render dict, notes) for a rendered world: the width is raised for a
+    sun disc narrower than a pixel."""
+    notes = []
+    if render_width < SUN_DISC_MIN_WIDTH and _has_sun_disc(scene.world):
+        notes.append("render width raised from %d to %d: a sun disc narrower than a pixel is hit by "
+                     "too few samples" % (render_width, SUN_DISC_MIN_WIDTH))
+        render_width = SUN_DISC_MIN_WIDTH
+    render = {"width": render_width, "height": max(1, render_width // 2), "samples": render_samples,
+              "engine": "CYCLES", "camera": "panoramic equirectangular", "denoising": False,
+              "pixel_filter": "box 1 px", "frame": scene.frame_current}
+    return render, notes
+
+
+class ChildRender:
+    """The world rendered by Cycles in a child Blender (`blender -b`, this
+    add-on's render_child.py), so the UI stays live and Esc can stop it:
+    start() writes the world to a scratch .blend (main thread, milliseconds)
+    and starts the child; poll() says how far it got; cancel() ends it."""
+
+    SAMPLE = re.compile(r"(?:Sample|Path Tracing Sample)\s+(\d+)\s*/\s*(\d+)|(\d+)\s*/\s*(\d+)\s+[Ss]amples")
+
+    def __init__(self, world, width: int, samples: int, frame: int):
+        self.tmp = tempfile.mkdtemp(prefix="iblbake-render-")
+        self.blend = os.path.join(self.tmp, "world.blend")
+        self.exr = os.path.join(self.tmp, "world.exr")
+        self.notes_path = os.path.join(self.tmp, "notes.json")
+        self.args = (world.name if world is not None else "", width, samples, frame)
+        self.world = world
+        self.fraction = 0.0
+        self.lines = []
+        self.proc = None
+        self._reader = None
+
+    def start(self):
+        if self.world is not None:
+            bpy.data.libraries.write(self.blend, {self.world}, path_remap="ABSOLUTE")
+        script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "render_child.py")
+        name, width, samples, frame = self.args
+        cmd = [bpy.app.binary_path, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1",
+               "--python", script, "--", self.blend if self.world is not None else "", name, str(width),
+               str(samples), str(frame), self.exr, self.notes_path]
+        if shutil.which("nice"):  # the open Blender's UI comes first
+            cmd = ["nice", "-n", "10"] + cmd
+        env = dict(os.environ)
+        env.pop("PYTHONPATH", None)
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                     env=env, text=True, errors="replace")
+        self._reader = threading.Thread(target=self._read, name="iblbake render log", daemon=True)
+        self._reader.start()
+        return self
+
+    def _read(self):
+        for line in self.proc.stdout:
+            self.lines = (self.lines + [line.rstrip()])[-40:]
+            m = self.SAMPLE.search(line)
+            if m:
+                done, total = (m.group(1), m.group(2)) if m.group(1) else (m.group(3), m.group(4))
+                if int(total) > 0:
+                    self.fraction = min(1.0, int(done) / int(total))
+
+    def done(self) -> bool:
+        return self.proc is not None and self.proc.poll() is not None
+
+    def result(self):
+        """(path of the rendered EXR, notes); raises WorldError when the child failed."""
+        if self._reader is not None:
+            self._reader.join(5)
+        if self.proc.returncode != 0 or not os.path.isfile(self.exr):
+            tail = [ln for ln in self.lines if ln.strip()][-3:]
+            raise WorldError("Cycles could not render the world (exit code %s): %s"
+                             % (self.proc.returncode, " / ".join(tail) or "no output"))
+        notes = []
+        try:
+            import json
+            with open(self.notes_path) as f:
+                notes = json.load(f)
+        except (OSError, ValueError):
+            pass
+        return self.exr, notes
+
+    def cancel(self):
+        """Asks the child to stop (SIGTERM); returns at once (done() says when it has)."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+
+    def cleanup(self):
+        """Ends the child (killed if SIGTERM did not end it within a second) and removes its files."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(1)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        shutil.rmtree(self.tmp, ignore_errors=True)
 
 
 def read_world(scene, render_width: int, render_samples: int):
-    """(WorldSource, pixels or None for a plain colour)."""
-    src = classify(scene.world)
+    """(WorldSource, pixels or None for a plain color), on the main thread
+    (scripts and `blender -b`; the UI's operator runs these steps as a job)."""
+    src = classify(scene.world, check_image=True)
     if src.path == IMAGE:
         try:
             return src, read_image_pixels(src)
         except NeedsRender as e:
             src = WorldSource(RENDER, str(e), world=src.world)
     if src.path == RENDER:
-        notes = []
-        if render_width < SUN_DISC_MIN_WIDTH and _has_sun_disc(scene.world):
-            notes.append("render width raised from %d to %d: a sun disc narrower than a pixel is hit by "
-                         "too few samples" % (render_width, SUN_DISC_MIN_WIDTH))
-            render_width = SUN_DISC_MIN_WIDTH
-        src.render = {"width": render_width, "height": max(1, render_width // 2), "samples": render_samples,
-                      "engine": "CYCLES", "camera": "panoramic equirectangular", "denoising": False,
-                      "pixel_filter": "box 1 px", "frame": scene.frame_current}
-        pixels, copy_notes = render_world(scene.world, render_width, render_samples, scene.frame_current)
+        src.render, notes = render_settings(scene, render_width, render_samples)
+        pixels, copy_notes = render_world(scene.world, src.render["width"], render_samples, scene.frame_current)
         src.render["notes"] = notes + copy_notes
         return src, pixels
     return src, None
@@ -285,6 +454,7 @@ SUN_DISC_MIN_WIDTH = 1024
 def _has_sun_disc(world):
     if world is None or not world.use_nodes or world.node_tree is None:
         return False
-    return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type == "NISHITA" and n.sun_disc and not n.mute
-               for n in world.node_tree.nodes)
+    # Nishita's sky (Blender 5 splits it into single and multiple scattering) draws a sun disc.
+    return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type not in ("PREETHAM", "HOSEK_WILKIE")
+               and getattr(n, "sun_disc", False) and not n.mute for n in world.node_tree.nodes)
 

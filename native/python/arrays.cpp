@@ -1,6 +1,9 @@
 #include "arrays.h"
 
 #include <cstring>
+#include <string>
+
+#include "iblbake/io/image_io.h"
 
 namespace iblbake::py {
 
@@ -14,7 +17,19 @@ PixelArray::PixelArray(const pybind11::handle& obj) {
     if (arr.ndim() != 3 || (arr.shape(2) != 3 && arr.shape(2) != 4))
         value_error("image must have shape (H, W, 3) or (H, W, 4), got " + std::string(pybind11::str(arr.attr("shape"))));
     if (arr.shape(0) < 1 || arr.shape(1) < 1) value_error("image must be at least 1 x 1");
+    // The same maximum as a file's, before anything is copied (and before H
+    // and W are narrowed to int).
+    const int64_t h = arr.shape(0), w = arr.shape(1);
+    if (w > io::kMaxSourceSide || h > io::kMaxSourceSide || w * h > io::kMaxSourcePixels)
+        value_error("image is " + std::to_string(h) + " x " + std::to_string(w) +
+                    " (H x W): larger than the maximum of 32768 x 16384 pixels (W x H) and " +
+                    std::to_string(io::kMaxSourceSide) + " on a side");
+    // A strided or broadcast array is copied to C order; numpy may fail to.
     arr_ = decltype(arr_)::ensure(arr);
+    if (!arr_) {
+        PyErr_Clear();
+        throw pybind11::value_error("image could not be copied to a C-contiguous float32 array (out of memory?)");
+    }
     data_ = arr_.data();
     h_ = int(arr_.shape(0));
     w_ = int(arr_.shape(1));

@@ -14,6 +14,7 @@
 #include "bindings.h"
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/bake/bake_file.h"
+#include "iblbake/export/export.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/output_dir.h"
 
@@ -97,7 +98,11 @@ Parsed parse_options(const pybind11::dict& kw) {
                 else if (f == "png") wo.png = true;
                 else value_error("unknown format '" + f + "' (expected 'exr' or 'png')");
             }
-        } else if (key == "float32") wo.float32 = as_bool();
+        } else if (key == "presets") {
+            if (pybind11::isinstance<pybind11::str>(v)) value_error("presets must be a list of preset names, e.g. ['three']");
+            wo.presets = parse_presets(get_as<std::vector<std::string>>(v, key, "a list of preset names"));
+        } else if (key == "layout") wo.layout = layout_from_name(as_str());
+        else if (key == "float32") wo.float32 = as_bool();
         else if (key == "png_encoding") {
             const std::string e = as_str();
             if (e == "srgb") wo.png_encoding = PngEncoding::Srgb;
@@ -105,6 +110,7 @@ Parsed parse_options(const pybind11::dict& kw) {
             else value_error("unknown png_encoding '" + e + "' (expected 'srgb' or 'rgbm')");
         } else if (key == "exposure") wo.exposure = float(as_float());
         else if (key == "rgbm_range") wo.rgbm_range = float(as_float());
+        else if (key == "preview") wo.preview = as_bool();
         else if (key == "progress") {
             if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
             progress = pybind11::reinterpret_borrow<pybind11::object>(v);
@@ -118,24 +124,48 @@ Parsed parse_options(const pybind11::dict& kw) {
         }
         else if (key == "manifest_extra") {
             if (!pybind11::isinstance<pybind11::dict>(v)) value_error("manifest_extra must be a dict");
-            const std::string text = pybind11::str(pybind11::module_::import("json").attr("dumps")(v));
-            wo.manifest_extra = nlohmann::json::parse(text);
+            std::string text;
+            try {
+                text = pybind11::str(pybind11::module_::import("json").attr("dumps")(v, pybind11::arg("allow_nan") = false));
+            } catch (const pybind11::error_already_set& e) {
+                if (e.matches(PyExc_ValueError))
+                    value_error("manifest_extra: every number must be a finite number (JSON has no NaN or infinity)");
+                value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " +
+                            std::string(e.what()));
+            }
+            wo.manifest_extra = nlohmann::json::parse(text, nullptr, false);
+            if (wo.manifest_extra.is_discarded()) value_error("manifest_extra is not valid JSON");
+        } else if (key == "warnings") {
+            for (const std::string& w : get_as<std::vector<std::string>>(v, key, "a list of str"))
+                bo.warnings.push_back(w);
         } else if (key == "lut_cache_dir") lut_cache_dir = v.is_none() ? std::string() : as_str();
         else value_error("unknown option '" + key + "'");
     }
     bo.validate();
+    plan_presets(bo, wo.presets);  // a preset the options cannot serve fails here
+    bo = with_exports(bo, wo);     // the levels and files the presets need from the bake
     out.progress = wrap_progress(progress);
     if (!lut_cache_dir.empty()) out.cache.emplace(lut_cache_dir);
     return out;
 }
 
-// A progress callback that may be called from any thread with the GIL released.
+// A progress callback that may be called from any thread with the GIL
+// released. Ctrl-C is honoured here too (PyErr_CheckSignals, in the main
+// thread): the bake then unwinds, removes its staging folder and bake()
+// raises KeyboardInterrupt. The callback returns True or None to go on and
+// False to cancel; anything else is a TypeError.
 ProgressFn wrap_progress(const pybind11::object& cb) {
-    if (cb.is_none()) return {};
     return [cb](const std::string& stage, double f) {
         pybind11::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) throw pybind11::error_already_set();
+        if (cb.is_none()) return true;
         const pybind11::object r = cb(stage, f);
-        return r.is_none() || r.cast<bool>();
+        if (r.is_none()) return true;
+        if (pybind11::isinstance<pybind11::bool_>(r) ||
+            pybind11::isinstance(r, pybind11::module_::import("numpy").attr("bool_")))
+            return bool(pybind11::bool_(r));
+        throw pybind11::type_error("progress callback must return True or None (go on) or False (cancel), got " +
+                                   std::string(pybind11::str(pybind11::type::of(r).attr("__name__"))));
     };
 }
 
@@ -169,11 +199,25 @@ pybind11::dict result_dict(const BakeResult& r) {
     return d;
 }
 
+// A path argument: str, os.PathLike or bytes (file system encoding, so a
+// name that is not UTF-8 round-trips); anything else is a TypeError.
+std::string path_arg(const pybind11::handle& v, const char* what) {
+    const pybind11::module_ os = pybind11::module_::import("os");
+    if (!pybind11::isinstance<pybind11::str>(v) && !pybind11::isinstance<pybind11::bytes>(v) &&
+        !pybind11::hasattr(v, "__fspath__"))
+        throw pybind11::type_error(std::string(what) + " must be a str, bytes or os.PathLike path, got " +
+                                   std::string(pybind11::str(pybind11::type::of(v).attr("__name__"))));
+    return os.attr("fsencode")(v).cast<std::string>();
+}
+
 // bake() and bake_constant()'s out_dir: "" for none; checked with the GIL
 // held, before any work, so that a refused folder costs nothing.
 std::string checked_out_dir(const pybind11::object& out_dir, const Parsed& p) {
-    if (out_dir.is_none()) return {};
-    const std::string out = pybind11::str(out_dir);
+    if (out_dir.is_none()) {
+        if (!p.wo.presets.empty()) value_error("presets write files: give an out_dir");
+        return {};
+    }
+    const std::string out = path_arg(out_dir, "out_dir");
     if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
     p.wo.validate();
     io::check_replaceable(out, p.source_path);
@@ -190,7 +234,7 @@ pybind11::dict run_bake(Parsed& p, const std::string& out, SourceInfo src, Compu
         pybind11::gil_scoped_release release;
         r = compute(src);
         manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
-                               : write_bake(r, out, p.bo, p.wo, src);
+                               : write_bake(r, out, p.bo, p.wo, src, p.progress);
     }
     pybind11::dict d = result_dict(r);
     d["manifest"] = json_to_py(manifest);
@@ -241,11 +285,12 @@ eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
 specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
 lut_row_nodes (0: integrate every LUT texel; k >= 4: k integrals per row, spline between),
 hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
-rgbm_range, progress (callable(stage, fraction) -> bool; False cancels), source_path,
+rgbm_range, preview (also write preview.png, a contact sheet), progress (callable(stage, fraction) -> bool; False cancels), source_path,
 source_sha256 (the manifest's hash, when the caller has it already; else a written bake hashes the file
 or the pixels, and an unwritten one leaves it null),
 lut_cache_dir (a folder where BRDF LUTs are reused across bakes; none by default), manifest_extra (a dict of
-more top-level manifest keys).
+more top-level manifest keys), presets (engine presets, e.g. ['three', 'khronos:rgba32f']: each writes
+out_dir/<name>/, see presets()), layout ('hcross', 'vcross', 'faces', 'latlong').
 Raises ValueError on a wrong dtype, shape or option, or on bad pixels with strict=True.)doc");
 
     m.def(
@@ -264,12 +309,27 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
         pybind11::arg("rgb"), pybind11::arg("out_dir") = pybind11::none(),
         "Bake a constant world of radiance rgb in closed form (no integration); same options and result as bake().");
 
+    m.def(
+        "presets", [] { return json_to_py(presets_json()); },
+        "The engine presets (docs/export.md) as a list of dicts: name, description, container, format, formats, "
+        "supercompression, mirror, curve, lod_formula, levels, smallest, roughness_at_256, diffuse, diffuse_note, sh, "
+        "lut, notes.");
+
     m.def("default_lut_cache_dir", [] { return FileLutCache::default_dir().string(); },
           "The CLI's LUT cache folder: $IBLBAKE_CACHE_DIR, else $XDG_CACHE_HOME/iblbake, else ~/.cache/iblbake.");
 
     m.def(
+        "check_options",
+        [](const pybind11::kwargs& kw) {
+            Parsed p = parse_options(kw);
+            p.wo.validate();
+        },
+        "Raise ValueError, with the CLI's message, if bake()'s keyword options are not valid; do nothing else.");
+
+    m.def(
         "bake_file",
-        [](const std::string& source, const std::string& out_dir, const pybind11::kwargs& kw) {
+        [](const pybind11::object& source_obj, const pybind11::object& out_obj, const pybind11::kwargs& kw) {
+            const std::string source = path_arg(source_obj, "source"), out_dir = path_arg(out_obj, "out_dir");
             Parsed p = parse_options(kw);
             nlohmann::json manifest;
             {

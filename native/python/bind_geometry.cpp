@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <utility>
 
 #include "arrays.h"
 #include "bindings.h"
@@ -34,17 +35,28 @@ void bind_geometry(pybind11::module_& m) {
         "Face index and (s, t) in [0, 1] of an engine-space direction.");
     m.def(
         "read_image",
-        [](const std::string& path) {
+        [](const std::string& path, bool info) -> pybind11::object {
             io::LoadedImage li;
             {
                 pybind11::gil_scoped_release release;
                 li = io::read_image(path);
             }
             pybind11::array_t<float> a({li.image.height, li.image.width, 3});
-            std::memcpy(a.mutable_data(), li.image.pixels.data(), li.image.pixels.size() * sizeof(float));
-            return a;
+            float* dst = a.mutable_data();
+            {  // a large image's copy must not hold the GIL (Blender's UI waits on it)
+                pybind11::gil_scoped_release release;
+                std::memcpy(dst, li.image.pixels.data(), li.image.pixels.size() * sizeof(float));
+            }
+            if (!info) return pybind11::object(std::move(a));
+            pybind11::dict d;
+            d["channels"] = li.source_channels;
+            d["linearised"] = li.linearised;
+            d["format"] = li.format;
+            return pybind11::make_tuple(std::move(a), d);
         },
-        "Read an image as the bake does: (H, W, 3) float32, linear.");
+        pybind11::arg("path"), pybind11::arg("info") = false,
+        "Read an image as the bake does: (H, W, 3) float32, linear. With info=True: (array, {'channels': as "
+        "stored, 'linearised': an integer sRGB file was decoded, 'format': OpenImageIO's name}).");
     m.def(
         "write_exr",
         [](const std::string& path, const pybind11::handle& image) {

@@ -22,7 +22,7 @@ def test_hdri_world_bakes_like_the_cli(tmp_path):
     p = bake_world("--hdri", FOREST, "--out", str(tmp_path / "addon"), *opts)
     assert p.returncode == 0, p.stdout + p.stderr
     env = dict(os.environ, IBLBAKE_CACHE_DIR=str(tmp_path / "cache"))
-    subprocess.run([CLI, "bake", FOREST, "-o", str(tmp_path / "cli"), *opts, "-q"], check=True, env=env)
+    subprocess.run([CLI, "bake", FOREST, "-o", str(tmp_path / "cli"), *opts, "-q", "--preview"], check=True, env=env)
     a, c = manifest(tmp_path / "addon"), manifest(tmp_path / "cli")
     assert a["blender"]["path"] == "environment_texture"
     assert a["source"]["sha256"] == c["source"]["sha256"]
@@ -31,6 +31,10 @@ def test_hdri_world_bakes_like_the_cli(tmp_path):
         x, y = read(tmp_path / "addon" / name), read(tmp_path / "cli" / name)
         np.testing.assert_allclose(x, y, rtol=1e-3, atol=1e-5, err_msg=name)
     np.testing.assert_allclose(a["sh9"], c["sh9"], rtol=1e-5, atol=1e-7)
+    # The same preview sheet (one native renderer), read through OpenImageIO.
+    pa, pc = read(tmp_path / "addon" / "preview.png"), read(tmp_path / "cli" / "preview.png")
+    assert pa.shape == pc.shape and pa.shape[1] >= 400
+    np.testing.assert_allclose(pa, pc, atol=2.5 / 255)
 
 
 @pytest.mark.parametrize("rotation,strength,mapping_type,fmt", [
@@ -63,7 +67,7 @@ def test_sky_texture_world_is_rendered_by_cycles_then_baked(case):
     assert res["error"] == "", res
     m = manifest(work / "out")
     assert m["blender"]["path"] == "cycles_render"
-    assert "ShaderNodeTexSky" in m["blender"]["why"]
+    assert "Sky Texture node" in m["blender"]["why"]  # the node as Blender's UI names it
     assert m["blender"]["render"]["width"] == 256
     mip0 = read(work / "out" / "specular_0.exr")
     for d, seen in zip(res["probes"], res["cycles"]):
@@ -112,7 +116,7 @@ def test_materials_decide_what_is_baked(case):
     m = manifest(work / "principled")  # roughness 0.3 of r_m = m / 5: levels 1 and 2
     assert [e["level"] for e in m["specular"]] == [1, 2]
     assert sorted(os.listdir(work / "principled")) == [
-        "brdf_lut.exr", "irradiance.exr", "manifest.json", "specular_1.exr", "specular_2.exr"]
+        "brdf_lut.exr", "irradiance.exr", "manifest.json", "preview.png", "specular_1.exr", "specular_2.exr"]
     assert any(s["what"] == "specular levels 0-0, 3-5" for s in m["skipped"])
 
     m = manifest(work / "metal")  # fully metallic, textured roughness: no diffuse, every level
@@ -207,5 +211,7 @@ def test_packaged_zip_installs_and_bakes_with_its_own_module(tmp_path):
     assert module.startswith(str(tmp_path / "scripts")), module
     m = manifest(tmp_path / "out" / "World")
     assert m["blender"]["path"] == "plain_colour" and m["options"]["face_size"] == 8
-    # The default cube (Principled, roughness 0.5) reads levels 1-2 of 4.
-    assert [e["level"] for e in m["specular"]] == [1, 2]
+    # "Bake For" defaults to every roughness: all 4 levels, though the default
+    # cube (Principled, roughness 0.5) reads only levels 1-2; and the preview sheet.
+    assert [e["level"] for e in m["specular"]] == [0, 1, 2, 3]
+    assert m["preview"]["file"] == "preview.png" and (tmp_path / "out" / "World" / "preview.png").is_file()

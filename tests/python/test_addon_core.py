@@ -188,3 +188,99 @@ def test_hash_ignores_what_changes_no_file(tmp_path):
     assert pipeline.bake(src, px, small(tmp_path, formats=["exr", "png"])).status == "baked"
     assert pipeline.bake(src, px, small(tmp_path, formats=["exr", "png"], exposure=2.0)).status == "baked"
     assert base.status == "baked"
+
+
+# --- what the panel says (core/describe.py) and the off-main-thread file read (core/world.py) ---
+from iblbake.core import describe as D  # noqa: E402
+from iblbake.core.world import FileNotAsBlenderShowsIt, read_file_pixels  # noqa: E402
+
+
+def test_panel_says_in_words_what_is_skipped_and_why():
+    cube = N.needs_from_lobes(N.principled_lobes("Material", (0.5, 0.5), (0, 0), (0.5, 0.5)), 9, 1)
+    assert D.needs_sentences(cube, 9, scene_only=True) == [
+        "Only 1 of 9 specular levels (level 4): this scene's materials all use roughness 0.5"]
+    assert D.needs_sentences(cube, 9, scene_only=False) == [
+        "Everything: irradiance, all 9 specular levels, the BRDF LUT"]
+    # Engine presets need every level, whatever the scene reads.
+    assert D.needs_sentences(cube, 9, True, ("three",)) == ["Everything: engine presets (three) need every level"]
+    metal = N.needs_from_lobes([N.Lobe("glossy", (0.2, 0.6), "m")], 9, 1)
+    assert D.needs_sentences(metal, 9, True) == [
+        "No irradiance: no visible material is diffuse",
+        "Only 5 of 9 specular levels (levels 1-5): this scene's materials use roughness 0.2 to 0.6"]
+    assert D.needs_sentences(N.needs_from_lobes([], 9, 0), 9, True) == [
+        "Everything: no visible object to read materials from"]
+
+
+def test_long_paths_keep_their_end():
+    path = "/home/someone/projects/a very long project name/renders/ibl/World"
+    short = D.shorten_middle(path, 30)
+    assert len(short) == 30 and short.endswith("/renders/ibl/World") and short.startswith("/home")
+    assert "\u2026" in short
+    assert D.shorten_middle("/tmp/x", 30) == "/tmp/x"
+
+
+def test_bake_files_are_listed_with_sizes_and_levels_grouped(tmp_path):
+    for name, size in (("manifest.json", 10), ("preview.png", 20), ("irradiance.exr", 30), ("specular_0.exr", 40),
+                       ("specular_1.exr", 50), ("specular_2.exr", 60), ("brdf_lut.exr", 70)):
+        (tmp_path / name).write_bytes(b"x" * size)
+    files, total = D.bake_files(str(tmp_path))
+    assert total == 280 and files[0] == ("manifest.json", 10) and files[1] == ("preview.png", 20)
+    assert D.grouped_files(files)[-1] == ("specular_0-2.exr (3 files)", 150)
+    assert D.human_size(512) == "512 B" and D.human_size(3 * 1024 * 1024) == "3.0 MB"
+    assert D.bake_files(str(tmp_path / "missing")) == ([], 0)
+
+
+def test_file_read_off_the_main_thread_matches_blenders_pixels(tmp_path):
+    """The Environment Texture's file read by the native reader is what
+    Blender's buffer gives, after the nodes (here Strength); a file whose
+    pixels Blender would show otherwise is refused."""
+    rgb = np.random.default_rng(1).random((16, 32, 3), dtype=np.float32) * 4
+    path = str(tmp_path / "sky.exr")
+    ib.write_exr(path, rgb)
+    src = WorldSource(IMAGE, image_path=path, colorspace="Linear", is_float=True, strength=2.0)
+    np.testing.assert_array_equal(read_file_pixels(src, ib.read_image), rgb * 2)
+    # As Blender hands it over: flat RGBA rows bottom-up.
+    flat = np.concatenate([rgb, np.ones((16, 32, 1), np.float32)], -1)[::-1].reshape(-1)
+    np.testing.assert_array_equal(prepare_pixels(src, flat, 32, 16), rgb * 2)
+    with pytest.raises(FileNotAsBlenderShowsIt):  # Blender would convert from this colour space
+        read_file_pixels(WorldSource(IMAGE, image_path=path, colorspace="Filmic Log", is_float=True), ib.read_image)
+    # A file with an alpha channel: Cycles may multiply by it, so Blender's buffer is read instead.
+    import subprocess
+    alpha = str(tmp_path / "alpha.exr")
+    subprocess.run(["oiiotool", "--pattern", "constant:color=1,1,1,0.5", "32x16", "4", "-o", alpha], check=True)
+    from iblbake.core.world import exr_channels
+    assert exr_channels(alpha) == ["A", "B", "G", "R"] and exr_channels(path) == ["B", "G", "R"]
+    assert exr_channels(__file__) == []
+    with pytest.raises(FileNotAsBlenderShowsIt):
+        read_file_pixels(WorldSource(IMAGE, image_path=alpha, colorspace="Linear", is_float=True), ib.read_image)
+    img = read_file_pixels(WorldSource(IMAGE, image_path=alpha, colorspace="Linear", is_float=True), ib.read_image,
+                           alpha_matters=False)  # channel-packed alpha: the colour is read as it is
+    assert img.shape == (16, 32, 3) and float(img.min()) == 1.0
+
+
+def test_engine_presets_and_the_preview_are_in_the_content_hash():
+    """Ticking an engine or the preview sheet changes the files, so the hash;
+    presets switch the scene's skipping off (engines need every level)."""
+    src = WorldSource(IMAGE)
+    base = BakeSettings(out_dir="/x")
+    cube = N.needs_from_lobes(N.principled_lobes("m", (0.5, 0.5), (0, 0), (0.5, 0.5)), 9, 1)
+
+    def digest(s):
+        return pipeline.content_hash(src, "0" * 64, pipeline.native_options(s, cube), s, "1")
+    three = BakeSettings(out_dir="/x", presets=["three"])
+    assert digest(base) != digest(three) != digest(BakeSettings(out_dir="/x", presets=["three", "bevy"]))
+    assert digest(base) != digest(BakeSettings(out_dir="/x", preview=False))
+    assert digest(base) == digest(BakeSettings(out_dir="/elsewhere"))
+    assert pipeline.native_options(base, cube)["first_level"] == 4  # auto_skip on: level 4 of 9 only
+    opts = pipeline.native_options(three, cube)
+    assert "first_level" not in opts and opts["presets"] == ["three"] and opts["preview"] is True
+
+
+def test_thumbnail_is_small_srgb_and_bottom_up():
+    img = np.zeros((100, 300, 3), np.float32)
+    img[:50] = 0.214  # linear 0.214 is sRGB 0.5; the top half
+    t = D.thumbnail(img, 150)
+    assert t.shape == (50, 150, 4) and t.dtype == np.float32
+    np.testing.assert_allclose(t[-1, :, :3], 0.5, atol=2e-3)  # the top row is last (bottom-up)
+    np.testing.assert_allclose(t[0, :, :3], 0.0)
+    assert (t[..., 3] == 1).all()

@@ -4,6 +4,7 @@ atomically. No bpy."""
 import hashlib
 import json
 import os
+import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -30,6 +31,7 @@ class BakeReport:
     content_hash: str
     manifest: dict = field(default_factory=dict)
     seconds: float = 0.0
+    thumbnail: Optional[object] = None  # the preview sheet, small, for the panel (set by the UI's job)
 
     def summary(self) -> str:
         if self.status == "unchanged":
@@ -37,9 +39,10 @@ class BakeReport:
                 self.out_dir, self.content_hash[:12])
         spec = self.manifest.get("specular") or []
         levels = ("specular levels %d-%d" % (spec[0]["level"], spec[-1]["level"])) if spec else "no specular"
-        return "Baked in %.2f s into %s (%s%s%s)" % (
+        presets = sorted(self.manifest.get("presets") or {})
+        return "Baked in %.2f s into %s (%s%s%s%s)" % (
             self.seconds, self.out_dir, "irradiance, " if self.manifest.get("irradiance") else "", levels,
-            ", LUT" if self.manifest.get("brdf_lut") else "")
+            ", LUT" if self.manifest.get("brdf_lut") else "", ", for " + ", ".join(presets) if presets else "")
 
 
 def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
@@ -50,9 +53,12 @@ def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
                 formats=list(settings.formats), png_encoding=settings.png_encoding,
                 exposure=float(settings.exposure), float32=settings.float32, eps=float(settings.eps),
                 threads=settings.threads, irradiance=settings.irradiance, specular=settings.specular,
-                lut=settings.lut)
+                lut=settings.lut, presets=list(settings.presets))
+    if settings.preview:
+        opts["preview"] = True
     reasons = {}
-    if settings.auto_skip and needs is not None and needs.analysed:
+    # Engine presets need every level of their own chain: nothing is skipped for them.
+    if settings.auto_skip and needs is not None and needs.analysed and not settings.presets:
         for key, out in (("irradiance", "irradiance"), ("specular", "specular"), ("lut", "brdf_lut")):
             if opts[key] and not getattr(needs, key):
                 opts[key] = False
@@ -96,20 +102,63 @@ def content_hash(source: WorldSource, pixel_digest: Optional[str], opts: dict, s
     return h.hexdigest()
 
 
+def file_sha256(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def existing_hash(out_dir: str) -> Optional[str]:
-    """The content hash of the complete bake in out_dir, if there is one."""
+    """The content hash of the complete, intact bake in out_dir, if there is
+    one: every file the manifest lists (`files`: size and sha256) must be
+    there with its size and sha256, so a truncated or damaged output is baked
+    again, never kept as "unchanged". A manifest without `files` (an older
+    bake) is not trusted."""
     try:
         with open(os.path.join(out_dir, "manifest.json")) as f:
             m = json.load(f)
     except (OSError, ValueError):
         return None
-    files = [e["file"] for e in m.get("specular") or []]
-    for key in ("irradiance", "brdf_lut"):
-        if m.get(key):
-            files.append(m[key]["file"])
-    if not all(os.path.isfile(os.path.join(out_dir, f)) for f in files):
+    if not isinstance(m, dict):
         return None
+    files = m.get("files")
+    if not isinstance(files, dict) or not files:
+        return None
+    listed = [e.get("file") for e in m.get("specular") or [] if isinstance(e, dict)]
+    for key in ("irradiance", "brdf_lut"):
+        if isinstance(m.get(key), dict):
+            listed.append(m[key].get("file"))
+    for preset in (m.get("presets") or {}).values():  # each engine preset's folder
+        if isinstance(preset, dict):
+            listed.extend(os.path.join(preset.get("dir", ""), f).replace(os.sep, "/")
+                          for f in (preset.get("files") or {}).values() if isinstance(f, str))
+    if any(f not in files for f in listed):
+        return None
+    for name, entry in files.items():
+        path = os.path.join(out_dir, name)
+        try:
+            if os.path.getsize(path) != entry["bytes"] or file_sha256(path) != entry["sha256"]:
+                return None
+        except (OSError, KeyError, TypeError):
+            return None
     return (m.get("blender") or {}).get("content_hash")
+
+
+def source_warnings(source: WorldSource) -> list:
+    """What about the world itself deserves a warning (the native bake adds
+    its own: odd files, options, shapes)."""
+    out = []
+    if source.world is None:
+        out.append("the scene has no world: baked what Cycles renders without one (black)")
+    if source.path != COLOR and isinstance(source.strength, (int, float)) and source.strength < 0:
+        out.append("the world's Background Strength is negative (%g): negative radiance is baked as 0"
+                   % source.strength)
+    if source.path == COLOR and any(c < 0 for c in source.color):
+        out.append("the world colour times Strength is negative (%s): baked as 0"
+                   % ", ".join("%g" % c for c in source.color))
+    return out
 
 
 def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettings,
@@ -129,9 +178,9 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         raise BakeError("no pixels to bake")
     out_dir = os.path.abspath(os.path.expanduser(settings.out_dir))
     opts = native_options(settings, needs)
-    if not (opts["irradiance"] or opts["specular"] or opts["lut"]):
+    if not (opts["irradiance"] or opts["specular"] or opts["lut"] or opts["presets"]):
         why = "; ".join(sorted(set((opts.get("skip_reasons") or {}).values()))) or "every output is switched off"
-        raise BakeError("nothing to bake (%s): switch Skip Unused off to bake anyway" % why)
+        raise BakeError("nothing to bake (%s): choose Bake For: Every Roughness to bake anyway" % why)
     parent = os.path.dirname(out_dir)
     while parent and not os.path.isdir(parent):
         parent = os.path.dirname(parent)
@@ -139,7 +188,11 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         os.rmdir(tempfile.mkdtemp(prefix=".iblbake-probe-", dir=parent or "."))
     except OSError as e:
         raise BakeError("cannot write into %s: %s" % (parent or ".", e.strerror or e)) from e
+    if progress is not None and progress("hashing", 0.0) is False:
+        raise core.Cancelled()
+    hash_start = time.perf_counter()
     pixel_digest = pixels_sha256(pixels) if pixels is not None else None
+    hash_seconds = time.perf_counter() - hash_start
     digest = content_hash(source, pixel_digest, opts, settings, core.__version__)
     if not settings.force and existing_hash(out_dir) == digest:
         return BakeReport("unchanged", out_dir, digest)
@@ -149,7 +202,12 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
     blender["needs"] = needs.to_json() if needs is not None else None
     blender["auto_skip"] = settings.auto_skip
     blender["content_hash"] = digest
+    if "waited" in blender:  # the stages before the native bake, as the UI's job ran them
+        blender["waited"] = dict(blender["waited"], hash_pixels=round(hash_seconds, 4))
     opts["manifest_extra"] = {"blender": blender}
+    warnings = source_warnings(source)
+    if warnings:
+        opts["warnings"] = warnings
     cache = settings.lut_cache_dir or core.default_lut_cache_dir()
     if cache:
         opts["lut_cache_dir"] = cache
@@ -169,4 +227,6 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         raise
     except (ValueError, RuntimeError, OSError) as e:  # bad input, a refused or unwritable folder
         raise BakeError(str(e)) from e
+    for w in result["manifest"].get("warnings") or []:
+        print("iblbake: warning: %s" % w, file=sys.stderr, flush=True)
     return BakeReport("baked", out_dir, digest, result["manifest"], time.perf_counter() - start)

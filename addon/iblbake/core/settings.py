@@ -31,7 +31,9 @@ class BakeSettings:
     irradiance: bool = True
     specular: bool = True
     lut: bool = True
-    auto_skip: bool = True   # skip what the scene's materials don't use
+    presets: List[str] = field(default_factory=list)  # engine presets (iblbake_core.presets()), each written into out_dir/<name>/
+    preview: bool = True     # preview.png: the contact sheet
+    auto_skip: bool = True   # skip what the scene's materials don't use (the UI defaults to off: every roughness)
     force: bool = False      # bake even when the world and settings are unchanged
     render_width: int = RENDER_WIDTH
     render_samples: int = RENDER_SAMPLES
@@ -53,6 +55,8 @@ class BakeSettings:
             raise ValueError("render width must be in 16..16384")
         if not (1 <= self.render_samples <= 4096):
             raise ValueError("render samples must be in 1..4096")
+        if not isinstance(self.presets, (list, tuple)) or not all(isinstance(p, str) and p for p in self.presets):
+            raise ValueError("presets must be a list of engine preset names")
 
     def hash_fields(self) -> dict:
         """The settings that change the files (not where they go, nor how fast)."""

@@ -113,7 +113,7 @@ class WorldSource:
 
     def check_colorspace(self):
         if not self.is_float and self.colorspace != "sRGB" and self.colorspace not in LINEAR_COLORSPACES:
-            raise ValueError("colour space %r of an 8-bit image is not read directly" % self.colorspace)
+            raise ValueError("the Color Space %r of an 8-bit image is not read directly" % self.colorspace)
 
 
 def prepare_pixels(src: WorldSource, rgba_bottom_up: np.ndarray, width: int, height: int, remap=None) -> np.ndarray:
@@ -125,6 +125,12 @@ def prepare_pixels(src: WorldSource, rgba_bottom_up: np.ndarray, width: int, hei
     img = np.ascontiguousarray(px)
     if src.needs_srgb_decode():
         img = srgb_to_linear(img)
+    return apply_nodes(src, img, remap)
+
+
+def apply_nodes(src: WorldSource, img: np.ndarray, remap=None) -> np.ndarray:
+    """Linear (H, W, 3) float32 radiance, rows top-down, seen through the
+    Mapping node and times Strength (in place where it can)."""
     if src.mapping is not None and not src.mapping.is_identity():
         if remap is None:
             raise ValueError("a Mapping node needs the native remap")
@@ -133,3 +139,56 @@ def prepare_pixels(src: WorldSource, rgba_bottom_up: np.ndarray, width: int, hei
     if src.strength != 1.0:
         img *= np.float32(src.strength)
     return img
+
+
+class FileNotAsBlenderShowsIt(Exception):
+    """The file's pixels, read by iblbake itself, may differ from what Blender
+    shows for the image (alpha, colour space): read Blender's buffer instead."""
+
+
+def read_file_pixels(src: WorldSource, read_image, remap=None, alpha_matters: bool = True) -> np.ndarray:
+    """The Environment Texture's radiance read straight from its file by the
+    native reader (off Blender's main thread: it releases the GIL), as
+    Blender would show it: (H, W, 3) float32, rows top-down. `read_image(path,
+    info=True)` is iblbake_core.read_image. Raises FileNotAsBlenderShowsIt when
+    the file's pixels are not what Blender shows (then Blender's own buffer
+    is read instead)."""
+    if alpha_matters and "A" in exr_channels(src.image_path):  # the native reader reads R, G, B only
+        raise FileNotAsBlenderShowsIt("the file has an alpha channel")
+    img, info = read_image(src.image_path, info=True)
+    if info["channels"] >= 4 and alpha_matters:
+        raise FileNotAsBlenderShowsIt("the file has an alpha channel")
+    if src.is_float:
+        if src.colorspace not in LINEAR_COLORSPACES:
+            raise FileNotAsBlenderShowsIt("a float image in Color Space %r" % src.colorspace)
+    elif not (src.colorspace == "sRGB" and info["linearised"]):
+        raise FileNotAsBlenderShowsIt("an 8-bit image in Color Space %r" % src.colorspace)
+    return apply_nodes(src, np.asarray(img, dtype=np.float32), remap)
+
+
+def exr_channels(path: str) -> list:
+    """The channel names an OpenEXR file's header lists ([] for other files
+    or an unreadable header): its attributes are name, type, size, value;
+    "channels" (chlist) holds name, 16 bytes, ..., an empty name."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(65536)
+    except OSError:
+        return []
+    if head[:4] != b"\x76\x2f\x31\x01":
+        return []
+    pos = 8
+    while pos < len(head) and head[pos] != 0:
+        name_end = head.index(b"\0", pos)
+        type_end = head.index(b"\0", name_end + 1)
+        size = int.from_bytes(head[type_end + 1:type_end + 5], "little")
+        value = head[type_end + 5:type_end + 5 + size]
+        if head[pos:name_end] == b"channels" and head[name_end + 1:type_end] == b"chlist":
+            names, i = [], 0
+            while i < len(value) and value[i] != 0:
+                end = value.index(b"\0", i)
+                names.append(value[i:end].decode("latin-1"))
+                i = end + 1 + 16
+            return names
+        pos = type_end + 5 + size
+    return []

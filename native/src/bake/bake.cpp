@@ -6,7 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/ibl/bin_tree.h"
@@ -29,21 +31,97 @@ int pow2_ceil(double x) {
     return p;
 }
 
+// The specular levels a bake integrates: SPEC's (first_level .. last_level)
+// and the extra ones engine presets asked for. Levels at r = 0 come first:
+// they read the source itself, which an owned source may free afterwards.
+struct LevelJob {
+    int face_size;
+    double roughness;
+    int spec_level;  // -1: an extra level
+};
+std::vector<LevelJob> level_jobs(const BakeOptions& o) {
+    std::vector<LevelJob> jobs;
+    if (o.specular)
+        for (int m = o.first_level; m <= o.resolved_last_level(); ++m)
+            jobs.push_back({std::max(1, o.face_size >> m), o.mip_roughness(m), m});
+    for (const SpecularLevelRequest& e : o.extra.specular) jobs.push_back({e.face_size, e.roughness, -1});
+    std::stable_sort(jobs.begin(), jobs.end(),
+                     [](const LevelJob& a, const LevelJob& b) { return (a.roughness > 0.0) < (b.roughness > 0.0); });
+    return jobs;
+}
+
+// Which levels are integrated together (specular_hierarchical_group): at a
+// face size where engine presets asked for extra levels, the levels of that
+// face (SPEC's among them), in order of roughness, up to four at a time from
+// the smallest and within a factor 1.6 of it (the narrowest lobe's traversal
+// serves them all, on finer bins than the others need). A face with no extra
+// level keeps SPEC's level to itself, so a bake without presets is unchanged;
+// under FIS every level is integrated alone. The groups come in the order of
+// their first job.
+std::vector<std::vector<size_t>> level_groups(const std::vector<LevelJob>& jobs, bool hierarchical) {
+    std::vector<std::vector<size_t>> groups;
+    std::vector<char> grouped(jobs.size(), 0);
+    auto has_extra = [&](int face) {
+        for (const LevelJob& j : jobs)
+            if (j.spec_level < 0 && j.roughness > 0.0 && j.face_size == face) return true;
+        return false;
+    };
+    auto candidate = [&](const LevelJob& j) { return hierarchical && j.roughness > 0.0 && has_extra(j.face_size); };
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        if (grouped[i] || !candidate(jobs[i])) continue;
+        // Every candidate of this face, by roughness, split greedily.
+        std::vector<size_t> c;
+        for (size_t k = 0; k < jobs.size(); ++k)
+            if (candidate(jobs[k]) && jobs[k].face_size == jobs[i].face_size) c.push_back(k);
+        std::stable_sort(c.begin(), c.end(),
+                         [&](size_t x, size_t y) { return jobs[x].roughness < jobs[y].roughness; });
+        std::vector<size_t> g;
+        std::vector<double> r;
+        for (size_t k : c) {
+            r.push_back(jobs[k].roughness);
+            if (!g.empty() && (g.size() == 4 || jobs[k].roughness > 1.6 * jobs[g[0]].roughness ||
+                               !specular_group_safe(r))) {
+                groups.push_back(g);
+                g.clear();
+                r = {jobs[k].roughness};
+            }
+            g.push_back(k);
+        }
+        groups.push_back(g);
+        for (size_t k : c) grouped[k] = 1;
+    }
+    for (size_t i = 0; i < jobs.size(); ++i)
+        if (!grouped[i]) groups.push_back({i});
+    std::sort(groups.begin(), groups.end(), [](const std::vector<size_t>& a, const std::vector<size_t>& b) {
+        return *std::min_element(a.begin(), a.end()) < *std::min_element(b.begin(), b.end());
+    });
+    return groups;
+}
+
+// The smallest positive roughness among the levels baked (0 when none is).
+double smallest_positive_roughness(const std::vector<LevelJob>& jobs) {
+    double r = 0.0;
+    for (const LevelJob& j : jobs)
+        if (j.roughness > 0.0 && (r == 0.0 || j.roughness < r)) r = j.roughness;
+    return r;
+}
+
 // Finest specular bins: small enough for every level's lobe (radius <=
 // min(level eps, finest_eps) * 2 alpha, about 2.2 / (eps alpha) bins across)
-// and horizon rule (radius <= hierarchical_horizon_radius), a power of two,
-// at most 4096 across.
+// and horizon rule (radius <= hierarchical_horizon_radius), SPEC's levels and
+// the presets' alike, a power of two, at most 4096 across.
 int finest_bin_width(const BakeOptions& o) {
-    const int mips = o.resolved_mip_count();
-    if (!o.specular || mips < 2 || o.specular_method != SpecularMethod::Hierarchical || o.resolved_last_level() < 1)
-        return 2;
+    if (o.specular_method != SpecularMethod::Hierarchical) return 2;
     double radius = kPi;
-    for (int m = std::max(1, o.first_level); m <= o.resolved_last_level(); ++m) {
-        const double r = o.mip_roughness(m);
-        const int n = std::max(1, o.face_size >> m);
-        const double e = std::min(hierarchical_level_eps(o.hierarchical, n), o.hierarchical.finest_eps);
-        if (r > 0.0) radius = std::min({radius, e * 2.0 * r * r, hierarchical_horizon_radius(r, n, o.hierarchical)});
+    bool any = false;
+    for (const LevelJob& j : level_jobs(o)) {
+        const double r = j.roughness;
+        if (!(r > 0.0)) continue;
+        const double e = std::min(hierarchical_level_eps(o.hierarchical, j.face_size), o.hierarchical.finest_eps);
+        radius = std::min({radius, e * 2.0 * r * r, hierarchical_horizon_radius(r, j.face_size, o.hierarchical)});
+        any = true;
     }
+    if (!any) return 2;
     return std::clamp(pow2_ceil(4.4 / radius), 2, 4096);  // an equator bin of w across: radius 4.44 / w
 }
 
@@ -102,6 +180,57 @@ void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
         r.lut = bake_brdf_lut(o.lut_size, o.lut_model, o.lut_quality);
         if (lut_cache) lut_cache->store(key, *r.lut);
     }
+}
+
+// The LUTs of the extra models (engine presets), from the cache when there.
+void extra_lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
+    for (LutModel model : o.extra.luts) {
+        if (r.lut && model == o.lut_model) continue;  // the SPEC LUT serves
+        bool have = false;
+        for (const auto& [m, img] : r.extra_luts) have = have || m == model;
+        if (have) continue;
+        const std::string key = lut_cache_key(o.lut_size, model, o.lut_quality);
+        std::optional<Image> lut;
+        if (lut_cache) lut = lut_cache->load(key);
+        if (lut && (lut->width != o.lut_size || lut->height != o.lut_size)) lut.reset();
+        if (!lut) {
+            lut = bake_brdf_lut(o.lut_size, model, o.lut_quality);
+            if (lut_cache) lut_cache->store(key, *lut);
+        }
+        r.extra_luts.emplace_back(model, std::move(*lut));
+    }
+}
+
+// Warnings about the options alone (the caller's first).
+void option_warnings(BakeResult& r, const BakeOptions& o) {
+    r.warnings = o.warnings;
+    const bool exports = o.extra.irradiance || !o.extra.specular.empty() || !o.extra.luts.empty() || o.extra.keep_source;
+    if (!o.irradiance && !o.specular && !o.lut && !exports)
+        r.warnings.push_back("every output is disabled: a written bake holds manifest.json alone");
+}
+
+bool all_finite(const std::vector<float>& v) {
+    for (const float x : v)
+        if (!std::isfinite(x)) return false;
+    return true;
+}
+
+// The last guard: nothing non-finite leaves a bake. A numpy source is read
+// in place without the GIL; one changed while it is read can put NaN in
+// the sums, and then the bake fails instead of writing them.
+void check_outputs(const BakeResult& r, bool source_in_place) {
+    bool ok = (!r.irradiance || all_finite(r.irradiance->pixels)) && (!r.lut || all_finite(r.lut->pixels));
+    for (const Cubemap& c : r.specular) ok = ok && all_finite(c.pixels);
+    ok = ok && (!r.extra_irradiance || all_finite(r.extra_irradiance->pixels));
+    for (const ExtraSpecularLevel& e : r.extra_specular) ok = ok && all_finite(e.cube.pixels);
+    for (const auto& [model, lut] : r.extra_luts) ok = ok && all_finite(lut.pixels);
+    for (const auto& ch : r.sh9)
+        for (const double v : ch) ok = ok && std::isfinite(v);
+    if (ok) return;
+    throw std::runtime_error(source_in_place
+                                 ? "the source array changed while it was being baked (a value that is not finite "
+                                   "reached the outputs); nothing was written: do not modify it during bake()"
+                                 : "a value that is not finite reached the outputs; nothing was written");
 }
 
 // Why an output is off: the caller's reason, else `fallback`.
@@ -166,6 +295,10 @@ void BakeOptions::validate() const {
     check(first_level >= 0 && first_level < mips, "first_level must be in 0..mip_count-1");
     check(last_level == -1 || (last_level >= first_level && last_level < mips),
           "last_level must be -1 (the last) or in first_level..mip_count-1");
+    for (const SpecularLevelRequest& e : extra.specular)
+        check(e.face_size >= 1 && e.face_size <= 4096 && std::isfinite(e.roughness) && e.roughness >= 0.0 &&
+                  e.roughness <= 1.0,
+              "extra specular levels need a face size in 1..4096 and a roughness in 0..1");
 }
 
 int BakeOptions::resolved_last_level() const { return last_level < 0 ? resolved_mip_count() - 1 : last_level; }
@@ -190,6 +323,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                        LutCache* lut_cache, OutputSink* sink) {
     o.validate();
     if (view.width < 1 || view.height < 1) throw std::invalid_argument("source image is empty");
+    const bool owned_source = owned != nullptr;
     return in_arena(o.threads, [&] {
         BakeResult r;
         const SinkGuard guard{sink};  // destroyed before r: what the sink reads outlives it
@@ -199,11 +333,16 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         };
         const int mips = o.resolved_mip_count();
         // Rough share of the work per stage, for the progress bar.
-        const double w_irr = o.irradiance ? 0.15 : 0.0, w_lut = o.lut ? 0.25 : 0.0;
-        const double w_spec = o.specular ? 0.6 : 0.0, w_total = 0.05 + w_irr + w_spec + w_lut;
+        const double w_irr = o.irradiance || o.extra.irradiance ? 0.15 : 0.0, w_lut = o.lut ? 0.25 : 0.0;
+        const double w_spec = o.specular || !o.extra.specular.empty() ? 0.6 : 0.0;
+        const double w_total = 0.05 + w_irr + w_spec + w_lut;
         double done = 0.0;
         auto advance = [&](double w) { done += w / w_total; };
 
+        option_warnings(r, o);
+        if (view.width != 2 * view.height)
+            r.warnings.push_back("the source is " + std::to_string(view.width) + " x " + std::to_string(view.height) +
+                                 ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
         report("reading source", 0.0);
         const SourceScan scan = scan_source(view);
         r.bad_input = scan.bad;
@@ -250,44 +389,60 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
         clock.done("sh9");
 
-        // Outputs are final once made: scaled back (the overflow guard) and
-        // handed to the sink, which may start writing them at once.
-        auto finished = [&](std::vector<float>& px) {
-            if (scale_exp != 0)
-                for (float& v : px) v = std::ldexp(v, scale_exp);
-        };
+        const std::vector<LevelJob> jobs = level_jobs(o);
+        const double r1 = smallest_positive_roughness(jobs);  // 0: no level needs the integrators
+        const bool want_irr = o.irradiance || o.extra.irradiance;
         const bool fis = o.specular_method == SpecularMethod::Fis;
-        const int first = o.first_level, last = o.resolved_last_level();
-        if (o.specular) {
-            r.specular.reserve(size_t(last - first + 1));  // the sink holds references into it
-            r.specular_levels.reserve(size_t(last - first + 1));
-        }
-        auto specular_done = [&](Cubemap&& level, int m, double rough) {
-            finished(level.pixels);
-            r.specular.push_back(std::move(level));
-            r.specular_levels.push_back(m);
-            r.roughness.push_back(rough);
-            if (sink) sink->cube("specular_" + std::to_string(m), r.specular.back());
-            advance(w_spec / (last - first + 1));
+
+        // Outputs are final once made: scaled back (the overflow guard; a
+        // result past the float range, a world of 3.4e38 convolved, saturates
+        // at the largest float, counted) and SPEC's handed to the sink, which
+        // may start writing them at once.
+        size_t saturated = 0;
+        auto rescale = [&](std::vector<float>& px) {
+            if (scale_exp == 0) return;
+            for (float& v : px) {
+                v = std::ldexp(v, scale_exp);
+                if (std::isinf(v)) {
+                    v = std::copysign(std::numeric_limits<float>::max(), v);
+                    ++saturated;
+                }
+            }
+        };
+        size_t spec_jobs = 0;
+        for (const LevelJob& j : jobs) spec_jobs += j.spec_level >= 0;
+        r.specular.reserve(spec_jobs);  // the sink holds references into it
+        auto finish = [&](const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method) {
+            rescale(level.pixels);
+            if (job.spec_level >= 0) {
+                r.specular.push_back(std::move(level));
+                r.specular_levels.push_back(job.spec_level);
+                r.roughness.push_back(job.roughness);
+                r.samples_per_texel.push_back(samples);
+                r.specular_methods.push_back(method);
+                if (sink) sink->cube("specular_" + std::to_string(job.spec_level), r.specular.back());
+            } else {
+                r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method});
+            }
+            advance(w_spec / double(jobs.size()));
             report("specular", done);
         };
 
-        // Mip 0 (r = 0 by default) first: the largest file, whose writing
-        // then overlaps everything that follows.
-        int next = first;
-        if (o.specular && o.mip_roughness(first) == 0.0) {
+        // The r = 0 levels (mip 0 by default) first: they read the source
+        // itself, and the largest file's writing then overlaps everything
+        // that follows.
+        bool mirrored = false;
+        for (const LevelJob& job : jobs) {
+            if (job.roughness != 0.0) continue;
             report("specular", done);
-            Cubemap level(std::max(1, o.face_size >> first));
+            Cubemap level(job.face_size);
             specular_mirror(level, source);
-            r.samples_per_texel.push_back(1);
-            r.specular_methods.push_back("bilinear source lookup");
-            specular_done(std::move(level), first, 0.0);
-            next = first + 1;
-            clock.done("specular_mip0");
+            finish(job, std::move(level), 1, "bilinear source lookup");
+            mirrored = true;
         }
+        if (mirrored) clock.done("specular_mip0");
 
-        const bool need_split =
-            o.irradiance || (o.specular && mips > 1 && o.specular_method == SpecularMethod::Fis);
+        const bool need_split = want_irr || (r1 > 0.0 && fis);
         HotSplit split;
         if (need_split) {
             split = split_hot(integrand, o.hot_threshold, o.max_hot);
@@ -302,8 +457,8 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
 
         // The hierarchical specular's bin tree, built first: its coarser exact
         // bins are the irradiance's too, which then needs no pass of its own.
-        const bool need_tree = o.specular && !fis && mips > 1 && last > 0;
-        const bool irr_from_tree = o.irradiance && need_tree && o.irradiance_bins <= finest_bins / 4;
+        const bool need_tree = !fis && r1 > 0.0;
+        const bool irr_from_tree = want_irr && need_tree && o.irradiance_bins <= finest_bins / 4;
         BinTree tree;
         std::vector<Bin> irr_bins;
         if (need_tree) {
@@ -313,7 +468,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             clock.done("bin_tree");
         }
 
-        if (o.irradiance) {
+        if (want_irr) {
             report("irradiance", done);
             const int bw = o.irradiance_bins, bh = o.irradiance_bins / 2;
             if (irr_from_tree) remove_hot(irr_bins, bw, bh, integrand.width, integrand.height, split);
@@ -321,22 +476,28 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             const BinGroups groups = group_bins(irr_bins, bw, bh);
             Cubemap irr(o.irradiance_size);
             irradiance_convolve(irr, groups, split.hot, o.irradiance_exact_face);
-            finished(irr.pixels);
-            r.irradiance = std::move(irr);
-            if (sink) sink->cube("irradiance", *r.irradiance);
+            rescale(irr.pixels);
+            if (o.irradiance) {
+                r.irradiance = std::move(irr);
+                if (sink) sink->cube("irradiance", *r.irradiance);
+            } else {
+                r.extra_irradiance = std::move(irr);
+            }
             clock.done("irradiance");
             advance(w_irr);
-        } else {
-            skip("irradiance");
         }
+        if (!o.irradiance) skip("irradiance");
 
-        if (o.specular) {
+        if (r1 > 0.0) {
             report("specular", done);
             CubePyramid pyramid;
-            if (mips > 1 && fis) {
+            if (fis) {
                 // The rest cube must resolve the narrowest lobe (about alpha_1
                 // radians wide) but need not be finer than the source.
-                const double r1 = o.mip_roughness(1), a1 = r1 * r1;
+                double rf = mips > 1 ? o.mip_roughness(1) : 1.0;
+                for (const SpecularLevelRequest& e : o.extra.specular)
+                    if (e.roughness > 0.0) rf = std::min(rf, e.roughness);
+                const double a1 = rf * rf;
                 int base = o.specular_base_face;
                 if (base == 0)
                     base = std::clamp(pow2_ceil(4.0 / a1), 8, std::clamp(pow2_ceil(integrand.width / 4.0), 8, 2048));
@@ -346,39 +507,56 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 latlong_to_cube(cube, rest_image(integrand, split), ss);  // on the integration grid
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
+            } else {
+                r.specular_kernel = specular_kernel_isa();
             }
-            for (int m = next; m <= last; ++m) {
-                const int n = std::max(1, o.face_size >> m);
-                const double rough = o.mip_roughness(m);
-                if (rough > 0.0 && !fis && owned) {
-                    // Past mip 0 only the tree is read: a source this bake owns
-                    // (the CLI's, or a cleaned copy) is freed before the rest
-                    // of the chain is made and written.
+            const std::string method_h = "hierarchical second-order kernel sum over exact bins (eps " +
+                                         std::to_string(o.hierarchical.eps).substr(0, 4) + ", " +
+                                         r.specular_kernel + " kernel)";
+            for (const std::vector<size_t>& group : level_groups(jobs, !fis)) {
+                const LevelJob& job = jobs[group[0]];
+                const int n = job.face_size;
+                const double rough = job.roughness;
+                if (rough == 0.0) continue;  // made above
+                if (!fis && owned) {
+                    // Past the r = 0 levels only the tree is read: a source this
+                    // bake owns (the CLI's, or a cleaned copy) is freed (or kept
+                    // for an export that asked for it) before the rest of the
+                    // chain is made and written.
+                    if (o.extra.keep_source) r.source = std::move(*owned);
                     std::vector<float>().swap(owned->pixels);
                     owned = nullptr;
                 }
-                Cubemap level(n);
-                if (rough == 0.0) {
-                    specular_mirror(level, source);
-                    r.samples_per_texel.push_back(1);
-                    r.specular_methods.push_back("bilinear source lookup");
-                } else if (!fis) {
-                    const double bins = specular_hierarchical(level, tree, rough, o.hierarchical);
-                    r.samples_per_texel.push_back(size_t(std::lround(bins)));
-                    r.specular_methods.push_back("hierarchical second-order kernel sum over exact bins (eps " +
-                                                 std::to_string(o.hierarchical.eps).substr(0, 4) + ")");
-                } else {
-                    const size_t samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality);
-                    r.samples_per_texel.push_back(samples + split.hot.size());
-                    r.specular_methods.push_back("filtered importance sampling + hot texels");
+                if (group.size() > 1) {
+                    // Levels at nearby roughness in one pass (shared bins and loads).
+                    std::vector<Cubemap> levels(group.size(), Cubemap(n));
+                    std::vector<SpecularGroupTarget> targets;
+                    for (size_t k = 0; k < group.size(); ++k) targets.push_back({&levels[k], jobs[group[k]].roughness});
+                    const double bins = specular_hierarchical_group(targets, tree, o.hierarchical);
+                    std::string with;
+                    for (size_t g : group) with += (with.empty() ? "" : ", ") + std::to_string(jobs[g].roughness);
+                    for (size_t k = 0; k < group.size(); ++k)
+                        finish(jobs[group[k]], std::move(levels[k]), size_t(std::lround(bins)),
+                               method_h + ", one pass for roughness " + with);
+                    continue;
                 }
-                specular_done(std::move(level), m, rough);
+                Cubemap level(n);
+                size_t samples = 0;
+                std::string method;
+                if (!fis) {
+                    samples = size_t(std::lround(specular_hierarchical(level, tree, rough, o.hierarchical)));
+                    method = method_h;
+                } else {
+                    samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality) +
+                              split.hot.size();
+                    method = "filtered importance sampling + hot texels";
+                }
+                finish(job, std::move(level), samples, method);
             }
-            skip_levels(r, o);
             clock.done("specular");
-        } else {
-            skip("specular");
         }
+        if (o.specular) skip_levels(r, o);
+        else skip("specular");
 
         if (o.lut) {
             report("brdf_lut", done);
@@ -389,12 +567,25 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         } else {
             skip("brdf_lut");
         }
+        extra_lut_stage(r, o, lut_cache);
+        // A source kept for an export that was not moved out above (not owned,
+        // or never freed) is copied from the cleaned view.
+        if (o.extra.keep_source && !r.source) {
+            r.source = Image(source.width, source.height);
+            for (int y = 0; y < source.height; ++y)
+                std::copy_n(source.at(0, y), size_t(source.width) * 3, r.source->at(0, y));
+        }
         if (scale_exp != 0) {
+            if (r.source) rescale(r.source->pixels);
             for (auto& ch : r.sh9)
                 for (double& v : ch) v = std::ldexp(v, scale_exp);
             for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
             r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
         }
+        if (saturated)
+            r.warnings.push_back(std::to_string(saturated) +
+                                 " output values exceeded the float range and were saturated at 3.4e38");
+        check_outputs(r, !owned_source);
         if (sink) sink->wait();
         report("done", 1.0);
         return r;
@@ -427,6 +618,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         auto report = [&](const std::string& stage, double f) {
             if (progress && !progress(stage, f)) throw Cancelled();
         };
+        option_warnings(r, o);
         report("reading source", 0.0);
         Image one(1, 1);
         std::copy(rgb.begin(), rgb.end(), one.pixels.begin());
@@ -448,6 +640,10 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         } else {
             r.skipped.push_back(skip_reason(o, "irradiance", "disabled by option"));
         }
+        if (!o.irradiance && o.extra.irradiance) r.extra_irradiance = fill(o.irradiance_size);
+        for (const SpecularLevelRequest& e : o.extra.specular)
+            r.extra_specular.push_back({e.face_size, e.roughness, fill(e.face_size), 0, "closed form (constant world)"});
+        if (o.extra.keep_source) r.source = one;
         if (o.specular) {
             r.specular.reserve(size_t(o.resolved_last_level() - o.first_level + 1));  // the sink holds references
             for (int m = o.first_level; m <= o.resolved_last_level(); ++m) {
@@ -471,6 +667,8 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         } else {
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
+        extra_lut_stage(r, o, lut_cache);
+        check_outputs(r, false);
         if (sink) sink->wait();
         report("done", 1.0);
         return r;

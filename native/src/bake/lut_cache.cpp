@@ -6,8 +6,10 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cmath>
 #include <cstring>
 
+#include "iblbake/io/hash.h"
 
 namespace iblbake {
 
@@ -22,10 +24,18 @@ std::string lut_cache_key(int size, LutModel model, const LutQuality& q) {
 namespace {
 
 // Entry layout: 8-byte magic, width and height (int32, this machine's
-// byte order, as the magic's last byte records), then width * height * 3
-// float32. Read back with one fread: a warm LUT costs about a millisecond,
-// where decoding a zip EXR of it took 37 ms.
-constexpr char kMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', '1', char(sizeof(int) * 16 + sizeof(float))};
+// byte order, as the magic's last byte records), the payload's sha256
+// (64 hex digits), then width * height * 3 float32. Read back with one fread: a
+// warm LUT costs about a millisecond, where decoding a zip EXR of it took
+// 37 ms. An entry whose payload does not match its checksum, or holds a
+// value that is not finite, is a miss: the table is made again and the
+// entry overwritten (the cache is shared by every bake on the machine, so
+// one damaged file must not poison them).
+constexpr char kMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', '2', char(sizeof(int) * 16 + sizeof(float))};
+
+std::string payload_digest(const Image& img) {
+    return io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
+}
 
 struct File {
     std::FILE* f;
@@ -45,11 +55,16 @@ std::optional<Image> FileLutCache::load(const std::string& key) {
     if (std::fread(magic, 1, 8, file.f) != 8 || std::memcmp(magic, kMagic, 8) != 0) return std::nullopt;
     if (std::fread(wh, sizeof(int32_t), 2, file.f) != 2 || wh[0] < 1 || wh[1] < 1 || wh[0] > 65536 || wh[1] > 65536)
         return std::nullopt;
+    char digest[65] = {0};
+    if (std::fread(digest, 1, 64, file.f) != 64) return std::nullopt;
     Image lut(wh[0], wh[1]);
     if (std::fread(lut.pixels.data(), sizeof(float), lut.pixels.size(), file.f) != lut.pixels.size())
         return std::nullopt;  // truncated: a miss, and store() replaces it
     char extra;
     if (std::fread(&extra, 1, 1, file.f) != 0) return std::nullopt;  // too long: not what we wrote
+    for (const float v : lut.pixels)
+        if (!std::isfinite(v)) return std::nullopt;
+    if (payload_digest(lut) != std::string(digest, 64)) return std::nullopt;  // damaged
     return lut;
 }
 
@@ -63,7 +78,9 @@ void FileLutCache::store(const std::string& key, const Image& lut) {
     {
         File file{std::fopen(tmp.c_str(), "wb")};
         const int32_t wh[2] = {lut.width, lut.height};
+        const std::string digest = payload_digest(lut);
         ok = file.f && std::fwrite(kMagic, 1, 8, file.f) == 8 && std::fwrite(wh, sizeof(int32_t), 2, file.f) == 2 &&
+             std::fwrite(digest.data(), 1, 64, file.f) == 64 &&
              std::fwrite(lut.pixels.data(), sizeof(float), lut.pixels.size(), file.f) == lut.pixels.size() &&
              std::fflush(file.f) == 0;
     }

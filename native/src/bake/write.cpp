@@ -5,14 +5,23 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <atomic>
 #include <mutex>
 
 #include <tbb/task_group.h>
 
+#include "iblbake/export/export.h"
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/image/encode.h"
+#include "iblbake/image/preview.h"
+#include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
+#include "iblbake/io/text.h"
+
+#ifndef IBLBAKE_VERSION
+#define IBLBAKE_VERSION "dev"
+#endif
 
 namespace iblbake {
 
@@ -25,39 +34,106 @@ constexpr float kHalfMax = 65504.0f;
 
 const char* png_encoding_name(PngEncoding e) { return e == PngEncoding::Srgb ? "srgb8" : "rgbm"; }
 
-// Writes one cube as a cross (EXR and/or PNG) and records encodings.
-void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cube, const WriteOptions& wo,
-                 json& encodings) {
-    const int w = 4 * cube.size, h = 3 * cube.size;
-    if (wo.exr) {
-        // Streamed in bands of the cross: no whole-cross buffer.
-        const bool full = wo.float32 || exceeds_half(cube.pixels);
-        io::write_exr_rows((dir / (stem + ".exr")).string(), w, h, 4, full ? io::ExrPixel::Float : io::ExrPixel::Half,
-                           [&](int y0, int rows, float* out) { hcross_rgba_rows(cube, y0, rows, out); });
-        encodings[stem + ".exr"] = full ? "float" : "half";
+// One image of a cube in the chosen layout: its file stem, size and rows.
+struct LayoutImage {
+    std::string stem;
+    int width, height;
+    std::function<void(int y0, int rows, float* out)> rows;
+};
+
+std::vector<LayoutImage> layout_images(const std::string& stem, const Cubemap& cube, CubeLayout layout,
+                                       std::shared_ptr<const BorderedCube>& bordered) {
+    const int n = cube.size;
+    switch (layout) {
+        case CubeLayout::HCross:
+            return {{stem, 4 * n, 3 * n, [&cube](int y0, int r, float* o) { hcross_rgba_rows(cube, y0, r, o); }}};
+        case CubeLayout::VCross:
+            return {{stem, 3 * n, 4 * n, [&cube](int y0, int r, float* o) { vcross_rgba_rows(cube, y0, r, o); }}};
+        case CubeLayout::Faces: {
+            std::vector<LayoutImage> out;
+            for (int f = 0; f < 6; ++f)
+                out.push_back({stem + "_" + kFaceSuffixes[f], n, n,
+                               [&cube, f](int y0, int r, float* o) { face_rgba_rows(cube, f, y0, r, o); }});
+            return out;
+        }
+        case CubeLayout::LatLong: {
+            bordered = std::make_shared<const BorderedCube>(BorderedCube::from_cube(cube));
+            const BorderedCube* b = bordered.get();
+            const int w = 4 * n, h = 2 * n;
+            return {{stem, w, h, [b, w, h](int y0, int r, float* o) { latlong_rgba_rows(*b, w, h, y0, r, o); }}};
+        }
     }
-    if (wo.png) {  // streamed in bands too, each encoded as it goes
-        io::write_png8_rows((dir / (stem + ".png")).string(), w, h, 4, [&](int y0, int rows, float* out) {
-            hcross_rgba_rows(cube, y0, rows, out);
-            const size_t n = size_t(rows) * w * 4;
-            if (wo.png_encoding == PngEncoding::Srgb) encode_srgb_in_place(out, n, wo.exposure);
-            else encode_rgbm_in_place(out, n, wo.exposure, wo.rgbm_range);
-        });
-        encodings[stem + ".png"] = png_encoding_name(wo.png_encoding);
+    return {};
+}
+
+// Called between bands of rows: throws Cancelled when the caller says stop.
+using Poll = std::function<void()>;
+
+// Writes one cube in the layout (EXR and/or PNG) and records encodings.
+void write_cross(const fs::path& dir, const std::string& stem, const Cubemap& cube, const WriteOptions& wo,
+                 json& encodings, const Poll& poll) {
+    std::shared_ptr<const BorderedCube> bordered;
+    // A lat-long resamples the cube bilinearly: it stays within the cube's range.
+    const bool full = wo.float32 || exceeds_half(cube.pixels);
+    for (const LayoutImage& img : layout_images(stem, cube, wo.layout, bordered)) {
+        if (wo.exr) {
+            // Streamed in bands: no whole-image buffer.
+            io::write_exr_rows((dir / (img.stem + ".exr")).string(), img.width, img.height, 4,
+                               full ? io::ExrPixel::Float : io::ExrPixel::Half, [&](int y0, int rows, float* out) {
+                                   poll();
+                                   img.rows(y0, rows, out);
+                               });
+            encodings[img.stem + ".exr"] = full ? "float" : "half";
+        }
+        if (wo.png) {  // streamed in bands too, each encoded as it goes
+            const int w = img.width;
+            io::write_png8_rows((dir / (img.stem + ".png")).string(), img.width, img.height, 4,
+                                [&](int y0, int rows, float* out) {
+                                    poll();
+                                    img.rows(y0, rows, out);
+                                    const size_t n = size_t(rows) * w * 4;
+                                    if (wo.png_encoding == PngEncoding::Srgb) encode_srgb_in_place(out, n, wo.exposure);
+                                    else encode_rgbm_in_place(out, n, wo.exposure, wo.rgbm_range);
+                                });
+            encodings[img.stem + ".png"] = png_encoding_name(wo.png_encoding);
+        }
     }
 }
 
+// The file a manifest entry names (the +X face's for the faces layout).
 std::string primary_file(const std::string& stem, const WriteOptions& wo) {
-    return stem + (wo.exr ? ".exr" : ".png");
+    return stem + (wo.layout == CubeLayout::Faces ? "_px" : "") + (wo.exr ? ".exr" : ".png");
+}
+
+// Every file of a cube entry (faces layout: six).
+json all_files(const std::string& stem, const WriteOptions& wo) {
+    json files = json::array();
+    const std::string ext = wo.exr ? ".exr" : ".png";
+    if (wo.layout != CubeLayout::Faces) return json::array({stem + ext});
+    for (const char* f : kFaceSuffixes) files.push_back(stem + "_" + f + ext);
+    return files;
 }
 
 }  // namespace
+
+void write_preview(const std::string& path, const BakeResult& r) {
+    const Image sheet = render_preview(r);
+    std::vector<float> rgba(size_t(sheet.width) * sheet.height * 4, 1.0f);
+    for (size_t k = 0; k < size_t(sheet.width) * sheet.height; ++k)
+        for (int c = 0; c < 3; ++c) rgba[4 * k + c] = sheet.pixels[3 * k + c];
+    encode_srgb_in_place(rgba.data(), rgba.size(), 0.0f);
+    io::write_png8(path, sheet.width, sheet.height, 4, rgba);
+}
 
 void WriteOptions::validate() const {
     if (!exr && !png) throw std::invalid_argument("no output format: ask for exr, png or both");
     if (!std::isfinite(exposure) || std::fabs(exposure) > 64.0f)
         throw std::invalid_argument("exposure must be a finite number of stops in -64..64");
     if (!manifest_extra.is_object()) throw std::invalid_argument("manifest_extra must be a JSON object");
+    for (size_t i = 0; i < presets.size(); ++i)
+        for (size_t k = 0; k < i; ++k)
+            if (presets[i].name == presets[k].name)
+                throw std::invalid_argument("preset '" + presets[i].name + "' is given twice");
     if (!std::isfinite(rgbm_range) || !(rgbm_range > 0.0f) || rgbm_range > 1e6f)
         throw std::invalid_argument("rgbm_range must be > 0 and finite");
 }
@@ -67,16 +143,18 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     json m;
     m["contract"] = 1;
     m["generator"] = "iblbake";
-    m["source"] = {{"path", src.path.empty() ? json(nullptr) : json(src.path)},
+    // A file name that is not UTF-8 is stored with its odd bytes as \xNN (JSON holds UTF-8 only).
+    m["source"] = {{"path", src.path.empty() ? json(nullptr) : json(io::printable(src.path))},
                    {"width", src.width},
                    {"height", src.height},
                    {"sha256", src.sha256.empty() ? json(nullptr) : json(src.sha256)},
                    {"linearised_from_srgb", src.linearised}};
     m["convention"] = "opengl-y-up";
-    m["layout"] = "hcross";
+    m["layout"] = layout_name(wo.layout);
     m["face_order"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
     if (r.irradiance) {
         m["irradiance"] = {{"file", primary_file("irradiance", wo)},
+                           {"files", all_files("irradiance", wo)},
                            {"face_size", r.irradiance->size},
                            {"divided_by_pi", true},
                            {"method", r.irradiance->size > bo.irradiance_exact_face
@@ -90,6 +168,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     for (size_t i = 0; i < r.specular.size(); ++i) {
         spec.push_back({{"level", r.specular_levels[i]},
                         {"file", primary_file("specular_" + std::to_string(r.specular_levels[i]), wo)},
+                        {"files", all_files("specular_" + std::to_string(r.specular_levels[i]), wo)},
                         {"face_size", r.specular[i].size},
                         {"roughness", r.roughness[i]},
                         {"samples_per_texel", r.samples_per_texel[i]},
@@ -125,11 +204,21 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                                 {"decode", "linear = rgb * a * range * 2^-exposure"},
                                 {"alpha", "holds M on faces (not 1); 0 on unused cross cells"}};
     }
+    if (wo.preview)
+        m["preview"] = {{"file", "preview.png"},
+                        {"radiance_scale", preview_scale(r)},
+                        {"shows", "irradiance, BRDF LUT, every specular level, metal and dielectric spheres per level "
+                                  "lit through the split sum; radiance times radiance_scale (a white diffuse surface at 0.5), "
+                                  "Reinhard's curve with white 4, sRGB"}};
     json timings = json::object();
     for (const auto& [stage, s] : r.timings) timings[stage] = s;
     if (write_seconds >= 0.0) timings["write"] = write_seconds;
     m["timings"] = timings;
     m["mean_radiance"] = r.mean_radiance;
+    m["warnings"] = r.warnings;
+    // The instruction set the hierarchical specular sum ran on (null: none ran).
+    m["specular_kernel"] = r.specular_kernel.empty() ? json(nullptr) : json(r.specular_kernel);
+    m["files"] = json::object();  // filled by write_bake
     m["integration_grid"] = {{"width", r.integration_width},
                              {"height", r.integration_height},
                              {"note", "the grid the hot split and, with specular_method fis, the rest cube read; "
@@ -165,14 +254,37 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     return m;
 }
 
+BakeOptions with_exports(BakeOptions bo, const WriteOptions& wo) {
+    bo.extra = extra_outputs(bo, plan_presets(bo, wo.presets));
+    return bo;
+}
+
 struct BakeWriter::Impl {
     WriteOptions wo;
     io::StagingDir staging;
+    ProgressFn progress;
     tbb::task_group tasks;
-    std::mutex mutex;
+    std::mutex mutex;                                 // parts and error
     std::vector<std::pair<std::string, json>> parts;  // per file set, merged in name order
     std::exception_ptr error;
-    Impl(const fs::path& outdir, const WriteOptions& w) : wo(w), staging(outdir) {}
+    std::atomic<bool> aborted{false}, computed{false};
+    std::mutex poll_mutex;
+    bool stopped = false;
+    Poll poll;
+    Impl(const fs::path& outdir, const WriteOptions& w, const ProgressFn& p) : wo(w), staging(outdir), progress(p) {
+        // Between bands of rows: a writer being destroyed stops at once; once
+        // the bake is computed, the caller is asked too (while it computes,
+        // its own progress calls are the bake's).
+        poll = [this] {
+            if (aborted.load(std::memory_order_relaxed)) throw Cancelled();
+            if (!progress || !computed.load(std::memory_order_relaxed)) return;
+            std::lock_guard<std::mutex> lock(poll_mutex);
+            if (stopped || !progress("writing", 1.0)) {  // the computing is done
+                stopped = true;
+                throw Cancelled();
+            }
+        };
+    }
 
     // Runs job on its own task; records its encodings or its failure.
     void run(const std::string& name, std::function<void(json&)> job) {
@@ -195,32 +307,34 @@ struct BakeWriter::Impl {
     }
 };
 
-BakeWriter::BakeWriter(const fs::path& outdir, const WriteOptions& wo) {
+BakeWriter::BakeWriter(const fs::path& outdir, const WriteOptions& wo, const ProgressFn& progress) {
     wo.validate();
-    impl_ = std::make_unique<Impl>(outdir, wo);
+    impl_ = std::make_unique<Impl>(outdir, wo, progress);
 }
 
 BakeWriter::~BakeWriter() {
     // Nothing may still write into the staging folder when it is removed.
+    impl_->aborted = true;
     impl_->tasks.cancel();
     impl_->tasks.wait();
 }
 
 void BakeWriter::cube(const std::string& stem, const Cubemap& cube) {
-    const fs::path dir = impl_->staging.path();
-    const WriteOptions& wo = impl_->wo;
-    impl_->run(stem, [dir, stem, &cube, &wo](json& e) { write_cross(dir, stem, cube, wo, e); });
+    Impl& im = *impl_;
+    const fs::path dir = im.staging.path();
+    im.run(stem, [&im, dir, stem, &cube](json& e) { write_cross(dir, stem, cube, im.wo, e, im.poll); });
 }
 
 void BakeWriter::lut(const Image& lut) {
-    const fs::path dir = impl_->staging.path();
-    const WriteOptions& wo = impl_->wo;
-    impl_->run("brdf_lut", [dir, &lut, &wo](json& e) {
-        if (wo.exr) {
+    Impl& im = *impl_;
+    const fs::path dir = im.staging.path();
+    im.run("brdf_lut", [&im, dir, &lut](json& e) {
+        im.poll();
+        if (im.wo.exr) {
             io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
             e["brdf_lut.exr"] = "float";
         }
-        if (wo.png) {
+        if (im.wo.png) {
             std::vector<float> v(lut.pixels.size());
             for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
             io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
@@ -229,6 +343,8 @@ void BakeWriter::lut(const Image& lut) {
     });
 }
 
+void BakeWriter::computed() { impl_->computed = true; }
+
 void BakeWriter::wait() {
     impl_->tasks.wait();
     std::lock_guard<std::mutex> lock(impl_->mutex);
@@ -236,30 +352,69 @@ void BakeWriter::wait() {
 }
 
 json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const SourceInfo& src) {
+    Impl& im = *impl_;
     const auto start = std::chrono::steady_clock::now();
+    computed();
+    const fs::path dir = im.staging.path();
+    const WriteOptions& wo = im.wo;
+    // What needs the whole result: the preview sheet and each engine
+    // preset's files into dir/<preset> (export/export.h).
+    if (wo.preview)
+        im.run("preview.png", [&im, dir, &r](json& e) {
+            im.poll();
+            write_preview((dir / "preview.png").string(), r);
+            e["preview.png"] = "srgb8";
+        });
+    const std::vector<PresetPlan> plans = plan_presets(bo, wo.presets);  // the jobs refer to it
+    const std::vector<ExportJob> exports = export_jobs(r, bo, plans, dir, "iblbake " IBLBAKE_VERSION);
+    std::vector<json> preset_parts(exports.size());
+    for (size_t k = 0; k < exports.size(); ++k)
+        im.run("~preset", [&im, &exports, &preset_parts, k](json&) {
+            im.poll();
+            preset_parts[k] = exports[k].run();
+        });
     wait();
-    std::sort(impl_->parts.begin(), impl_->parts.end(),
-              [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::stable_sort(im.parts.begin(), im.parts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     json encodings = json::object();
-    for (const auto& part : impl_->parts)
+    for (const auto& part : im.parts)
         for (const auto& [file, enc] : part.second.items()) encodings[file] = enc;
-    const fs::path dir = impl_->staging.path();
     // "write": how long the files kept the bake waiting once it was computed
-    // (they were written while it ran).
+    // (the SPEC files were written while it ran).
     const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    json manifest = make_manifest(r, bo, impl_->wo, src, encodings, waited);
+    json manifest = make_manifest(r, bo, wo, src, encodings, waited);
+    if (!exports.empty()) {
+        json presets = json::object();
+        for (size_t k = 0; k < exports.size(); ++k) presets[exports[k].preset] = preset_parts[k];
+        manifest["presets"] = presets;
+    }
+    // Every file's size and sha256: a skip check ("unchanged") can tell a
+    // damaged or truncated output from the one written here.
+    json files = json::object();
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
+         it.increment(ec)) {
+        if (!it->is_regular_file()) continue;
+        im.poll();
+        const std::string rel = fs::relative(it->path(), dir).generic_string();
+        files[rel] = {{"bytes", it->file_size()}, {"sha256", io::sha256_file(it->path().string())}};
+    }
+    if (ec) throw std::runtime_error("cannot list the files written: " + ec.message());
+    manifest["files"] = files;
     {
         std::ofstream f(dir / "manifest.json");
         f << manifest.dump(2) << "\n";
+        f.close();
         if (!f) throw std::runtime_error("cannot write manifest.json");
     }
-    impl_->staging.commit();
+    im.poll();  // the last moment a cancel leaves the earlier bake in place
+    im.staging.commit();
     return manifest;
 }
 
 json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
-                const SourceInfo& src) {
-    BakeWriter w(outdir, wo);
+                const SourceInfo& src, const ProgressFn& progress) {
+    BakeWriter w(outdir, wo, progress);
+    w.computed();  // the caller's bake is done: every write polls
     if (r.irradiance) w.cube("irradiance", *r.irradiance);
     for (size_t i = 0; i < r.specular.size(); ++i) w.cube("specular_" + std::to_string(r.specular_levels[i]), r.specular[i]);
     if (r.lut) w.lut(*r.lut);

@@ -12,10 +12,15 @@
 #include <Imath/half.h>
 
 #include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
 #include <mutex>
+#include <string>
 #include <stdexcept>
 #include <thread>
 
+#include "iblbake/io/image_io.h"
 #include "raw_pixels.h"
 
 namespace iblbake::io::detail {
@@ -38,20 +43,86 @@ int exr_threads() {
 
 }  // namespace
 
-RawPixels read_exr(const std::string& path) {
+namespace {
+// OpenEXR's own header check refuses larger windows and tiles, before it
+// sizes its chunk tables from them.
+void limit_exr_sizes() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        Imf::Header::setMaxImageSize(int(kMaxSourceSide), int(kMaxSourceSide));
+        Imf::Header::setMaxTileSize(8192, 8192);
+    });
+}
+
+int checked_int(int64_t v, const char* what) {
+    if (v < -(int64_t(1) << 30) || v > (int64_t(1) << 30)) throw std::runtime_error(std::string(what) + " out of range");
+    return int(v);
+}
+}  // namespace
+
+// OpenEXR 3.1 allocates an attribute's declared size before reading it (a
+// fuzzed 819-byte file asked for 1.9 GB): every attribute of every header
+// must fit in the file before OpenEXR sees it.
+void check_exr_headers(const std::string& path, uintmax_t file_size) {
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+    if (!f) throw std::runtime_error("cannot open the file");
+    unsigned char head[8];
+    if (std::fread(head, 1, 8, f.get()) != 8) throw std::runtime_error("file is truncated (no header)");
+    const bool multipart = head[5] & 0x10;  // version flags: 0x1000 is bit 4 of the second byte
+    uint64_t pos = 8;
+    auto read_name = [&](std::string& out) {  // up to 255 bytes and a NUL
+        out.clear();
+        for (;;) {
+            const int c = std::fgetc(f.get());
+            if (c == EOF) throw std::runtime_error("header is truncated");
+            ++pos;
+            if (c == 0) return;
+            out += char(c);
+            if (out.size() > 255) throw std::runtime_error("header is damaged (a name longer than 255 bytes)");
+        }
+    };
+    std::string name, type;
+    for (int header = 0; header < 1 << 16; ++header) {
+        int attributes = 0;
+        for (;; ++attributes) {
+            read_name(name);
+            if (name.empty()) break;
+            read_name(type);
+            unsigned char b[4];
+            if (std::fread(b, 1, 4, f.get()) != 4) throw std::runtime_error("header is truncated");
+            pos += 4;
+            const int32_t size = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+            if (size < 0 || pos + uint64_t(size) > file_size)
+                throw std::runtime_error("header is damaged: attribute '" + name + "' declares " + std::to_string(size) +
+                                         " bytes, the file holds " + std::to_string(file_size));
+            if (std::fseek(f.get(), long(size), SEEK_CUR) != 0) throw std::runtime_error("header is truncated");
+            pos += uint64_t(size);
+        }
+        if (!multipart || attributes == 0) return;  // a multi-part file's headers end with an empty one
+    }
+}
+
+RawPixels read_exr(const std::string& path, uintmax_t file_size) {
     RawPixels out;
     out.format = "openexr";
+    limit_exr_sizes();
+    check_exr_headers(path, file_size);
     Imf::InputFile in(path.c_str(), exr_threads());
     const Imf::Header& h = in.header();
     const Imath::Box2i dw = h.dataWindow(), disp = h.displayWindow();
-    out.width = dw.max.x - dw.min.x + 1;
-    out.height = dw.max.y - dw.min.y + 1;
-    out.full_width = disp.max.x - disp.min.x + 1;
-    out.full_height = disp.max.y - disp.min.y + 1;
-    out.x_offset = dw.min.x - disp.min.x;
-    out.y_offset = dw.min.y - disp.min.y;
-    if (out.width < 1 || out.height < 1) throw std::runtime_error("image has no pixels");
+    const int64_t width = int64_t(dw.max.x) - dw.min.x + 1, height = int64_t(dw.max.y) - dw.min.y + 1;
     const Imf::ChannelList& ch = h.channels();
+    int declared_channels = 0;
+    for (auto it = ch.begin(); it != ch.end(); ++it) ++declared_channels;
+    check_declared(width, height, std::min(declared_channels, 3), file_size);
+    if (!in.isComplete()) throw std::runtime_error("file is truncated or damaged (rows are missing)");
+    out.width = int(width);
+    out.height = int(height);
+    out.full_width = checked_int(int64_t(disp.max.x) - disp.min.x + 1, "display window");
+    out.full_height = checked_int(int64_t(disp.max.y) - disp.min.y + 1, "display window");
+    out.x_offset = checked_int(int64_t(dw.min.x) - disp.min.x, "data window offset");
+    out.y_offset = checked_int(int64_t(dw.min.y) - disp.min.y, "data window offset");
+    if (out.full_width < 1 || out.full_height < 1) out.full_width = out.full_height = 0;
     // Luminance-chroma files need OpenEXR's RGBA conversion (half precision).
     if (ch.findChannel("RY") || ch.findChannel("BY")) {
         Imf::RgbaInputFile rgba(path.c_str(), exr_threads());

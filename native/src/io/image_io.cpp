@@ -3,11 +3,18 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <stdexcept>
 
+#include "iblbake/io/text.h"
 #include "iblbake/math/color.h"
 #include "raw_pixels.h"
 
@@ -20,8 +27,12 @@ namespace {
 [[noreturn]] void fail(const std::string& path, const std::string& why) {
     std::string msg = why;
     std::replace(msg.begin(), msg.end(), '\n', ' ');
-    throw std::runtime_error("cannot read '" + path + "': " + msg);
+    while (!msg.empty() && msg.back() == ' ') msg.pop_back();
+    // A fuzzed header's bytes never reach the terminal raw.
+    throw std::runtime_error("cannot read '" + printable(path) + "': " + printable(msg));
 }
+
+std::string size_text(int64_t w, int64_t h) { return std::to_string(w) + " x " + std::to_string(h); }
 
 // The OpenImageIO plugin: $IBLBAKE_OIIO_PLUGIN, else beside the binary that
 // holds this code (the CLI, the Python module), else where the build put it.
@@ -52,7 +63,7 @@ const Plugin& plugin() {
                 p.error = dlerror();
                 continue;
             }
-            p.read = reinterpret_cast<detail::IblbakeOiioRead>(dlsym(h, "iblbake_oiio_read"));
+            p.read = reinterpret_cast<detail::IblbakeOiioRead>(dlsym(h, "iblbake_oiio_read_v2"));
             p.release = reinterpret_cast<detail::IblbakeOiioFree>(dlsym(h, "iblbake_oiio_free"));
             if (p.read && p.release) return;
             p.error = c + " is not iblbake's OpenImageIO plugin";
@@ -62,12 +73,16 @@ const Plugin& plugin() {
     return p;
 }
 
-RawPixels read_with_plugin(const std::string& path) {
+RawPixels read_with_plugin(const std::string& path, const std::string& format, uintmax_t file_size) {
     const Plugin& p = plugin();
     if (!p.read) fail(path, p.error);
     detail::IblbakeOiioImage img{};
     char error[512] = {0};
-    if (!p.read(path.c_str(), &img, error, sizeof(error))) fail(path, error);
+    const long long max_values = (long long)std::min<uintmax_t>(
+        uintmax_t(kMaxSourcePixels) * 4, std::max<uintmax_t>(file_size, 1) * (kMaxExpansion / sizeof(float)));
+    const int rc = p.read(path.c_str(), format.c_str(), kMaxSourceSide, max_values, &img, error, sizeof(error));
+    if (rc == 2) detail::check_declared(img.width, img.height, img.channels, file_size);  // throws
+    if (rc != 1) fail(path, error);
     RawPixels raw;
     raw.width = img.width;
     raw.height = img.height;
@@ -87,9 +102,29 @@ RawPixels read_with_plugin(const std::string& path) {
 
 // Display window, colour channels, sRGB decode: the same for every reader.
 LoadedImage finish(RawPixels&& r) {
+    LoadedImage out;
     const int dw = r.width, dh = r.height, nch = r.channels;
-    const int w = r.full_width > 0 ? r.full_width : dw, h = r.full_height > 0 ? r.full_height : dh;
-    const int ox = r.x_offset, oy = r.y_offset;
+    int w = r.full_width > 0 ? r.full_width : dw, h = r.full_height > 0 ? r.full_height : dh;
+    int ox = r.x_offset, oy = r.y_offset;
+    if (w != dw || h != dh || ox != 0 || oy != 0) {
+        // The lat-long spans the display window (outside the data, black) when
+        // that holds the data window and is not far larger; else the data
+        // window alone is baked: a 64 x 32 data window in a 24576 x 12288
+        // display window must not cost gigabytes.
+        const bool inside = ox >= 0 && oy >= 0 && int64_t(ox) + dw <= w && int64_t(oy) + dh <= h;
+        const bool modest = int64_t(w) * h <= 4 * int64_t(dw) * dh;
+        if (inside && modest) {
+            check_source_size(w, h, "display window");
+            out.warnings.push_back("the data window (" + size_text(dw, dh) + ") covers part of the display window (" +
+                                   size_text(w, h) + "): the rest is baked as black");
+        } else {
+            out.warnings.push_back(
+                std::string("the data window (") + size_text(dw, dh) + " at " + std::to_string(ox) + ", " +
+                std::to_string(oy) + ") " + (inside ? "is far smaller than" : "lies outside") +
+                " the display window (" + size_text(w, h) + "): the data window alone is baked");
+            w = dw, h = dh, ox = oy = 0;
+        }
+    }
     std::vector<float> raw;
     if (w == dw && h == dh && ox == 0 && oy == 0) {
         raw = std::move(r.data);
@@ -105,7 +140,6 @@ LoadedImage finish(RawPixels&& r) {
             }
         }
     }
-    LoadedImage out;
     out.source_channels = nch;
     out.format = r.format;
     out.linearised = !r.is_float && r.colorspace != "linear" && r.colorspace != "Linear";
@@ -114,6 +148,8 @@ LoadedImage finish(RawPixels&& r) {
     for (int c = 0; c < nch && colour.size() < 3; ++c)
         if (c != r.alpha_channel) colour.push_back(c);
     if (colour.empty()) colour.push_back(0);
+    if (colour.size() == 2)
+        out.warnings.push_back("the file has 2 colour channels, neither grey nor RGB: baked as grey from the first");
     if (colour.size() < 3) colour.assign(3, colour[0]);
     if (nch == 3 && colour == std::vector<int>{0, 1, 2} && !out.linearised) {
         // Linear RGB already in Image's layout (an EXR's R, G, B): kept, not copied.
@@ -139,19 +175,117 @@ void check_size(const std::string& path, int width, int height, int channels, si
 
 }  // namespace
 
+namespace {
+
+// The format a file's first bytes name ("" when they name none of these).
+std::string sniff(const unsigned char* b, size_t n) {
+    auto starts = [&](const char* magic, size_t len) { return n >= len && std::memcmp(b, magic, len) == 0; };
+    if (starts("\x89PNG\r\n\x1a\n", 8)) return "png";
+    if (starts("\xff\xd8\xff", 3)) return "jpeg";
+    if (starts("#?RADIANCE", 10) || starts("#?RGBE", 6)) return "hdr";
+    if (starts("II*\0", 4) || starts("MM\0*", 4) || starts("II+\0", 4) || starts("MM\0+", 4)) return "tiff";
+    if (starts("BM", 2)) return "bmp";
+    if (starts("8BPS", 4)) return "psd";
+    if (starts("DDS ", 4)) return "dds";
+    if (starts("RIFF", 4) && n >= 12 && std::memcmp(b + 8, "WEBP", 4) == 0) return "webp";
+    if (n >= 2 && b[0] == 'P' && std::strchr("123456Ff", b[1]) && b[1] != 0) return "pnm";
+    return "";
+}
+
+// The format an extension names, for formats with no magic number (Targa) or an unknown one.
+std::string format_of_extension(const std::string& path) {
+    static const std::map<std::string, std::string> kFormats = {
+        {"exr", "openexr"}, {"hdr", "hdr"},   {"rgbe", "hdr"},   {"pic", "hdr"},  {"png", "png"},
+        {"jpg", "jpeg"},    {"jpeg", "jpeg"}, {"jpe", "jpeg"},   {"jfif", "jpeg"}, {"tif", "tiff"},
+        {"tiff", "tiff"},   {"tga", "targa"}, {"tpic", "targa"}, {"bmp", "bmp"},  {"psd", "psd"},
+        {"dds", "dds"},     {"webp", "webp"}, {"pfm", "pnm"},    {"ppm", "pnm"},  {"pgm", "pnm"},
+        {"pnm", "pnm"}};
+    std::string ext = std::filesystem::path(path).extension().string();
+    if (!ext.empty()) ext.erase(0, 1);
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    const auto it = kFormats.find(ext);
+    return it == kFormats.end() ? std::string() : it->second;
+}
+
+// A JPEG ends with its end-of-image marker (FF D9), which entropy-coded data
+// never holds: without one in the last bytes the file was cut, and libjpeg
+// would fill the missing rows with grey after a mere warning.
+bool jpeg_has_end(std::FILE* f, uintmax_t size) {
+    const long tail = long(std::min<uintmax_t>(size, 4096));
+    std::vector<unsigned char> b(size_t(tail), 0);
+    if (std::fseek(f, -tail, SEEK_END) != 0 || std::fread(b.data(), 1, b.size(), f) != b.size()) return false;
+    for (size_t i = 0; i + 1 < b.size(); ++i)
+        if (b[i] == 0xFF && b[i + 1] == 0xD9) return true;
+    return false;
+}
+
+}  // namespace
+
+void check_source_size(int64_t width, int64_t height, const std::string& what) {
+    if (width < 1 || height < 1) throw std::runtime_error(what + " has no pixels (" + size_text(width, height) + ")");
+    if (width > kMaxSourceSide || height > kMaxSourceSide || width * height > kMaxSourcePixels)
+        throw std::runtime_error(what + " is " + size_text(width, height) + ": larger than the maximum of " +
+                                 std::to_string(kMaxSourcePixels >> 20) + " Mpixels (32768 x 16384) and " +
+                                 std::to_string(kMaxSourceSide) + " on a side");
+}
+
+void detail::check_declared(int64_t width, int64_t height, int channels, uintmax_t file_size) {
+    check_source_size(width, height);
+    const uintmax_t bytes = uintmax_t(width) * uintmax_t(height) * uintmax_t(std::max(channels, 1)) * sizeof(float);
+    if (bytes / uintmax_t(kMaxExpansion) > file_size)
+        throw std::runtime_error("the header declares " + size_text(width, height) + " pixels, but the file holds only " +
+                                 std::to_string(file_size) + " bytes: truncated or damaged");
+}
+
 LoadedImage read_image(const std::string& path) {
+    namespace fs = std::filesystem;
     std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) fail(path, "no such file");
-    if (std::filesystem::is_directory(path, ec)) fail(path, "is a directory");
-    if (std::filesystem::file_size(path, ec) == 0) fail(path, "file is empty");
-    if (detail::is_exr(path)) {
-        try {
-            return finish(detail::read_exr(path));
-        } catch (const std::exception& e) {
-            fail(path, e.what());
-        }
+    // stat() before open(): a FIFO would block the open, a device never ends.
+    const fs::file_status st = fs::status(path, ec);
+    if (st.type() == fs::file_type::not_found) fail(path, "no such file");
+    if (ec) fail(path, ec.message());
+    if (st.type() == fs::file_type::directory) fail(path, "is a directory");
+    if (st.type() != fs::file_type::regular) {
+        const char* kind = st.type() == fs::file_type::fifo        ? "a FIFO"
+                           : st.type() == fs::file_type::character ? "a character device"
+                           : st.type() == fs::file_type::block     ? "a block device"
+                           : st.type() == fs::file_type::socket    ? "a socket"
+                                                                   : "not a file";
+        fail(path, std::string("is not a regular file (") + kind + ")");
     }
-    return finish(read_with_plugin(path));
+    const uintmax_t size = fs::file_size(path, ec);
+    if (ec) fail(path, ec.message());
+    if (size == 0) fail(path, "file is empty");
+    std::string format;
+    {
+        std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+        if (!f) fail(path, std::strerror(errno));
+        unsigned char head[16] = {0};
+        const size_t n = std::fread(head, 1, sizeof(head), f.get());
+        if (n >= 4 && std::memcmp(head, "\x76\x2f\x31\x01", 4) == 0) format = "openexr";
+        else format = sniff(head, n);
+        const bool jpeg_magic = format == "jpeg";
+        if (format.empty()) format = format_of_extension(path);
+        if (format.empty())
+            fail(path, "not an image format iblbake reads (its first bytes are not EXR, PNG, JPEG, Radiance HDR, "
+                       "TIFF, ... and its extension names none)");
+        if (jpeg_magic && !jpeg_has_end(f.get(), size)) fail(path, "JPEG file is truncated (no end-of-image marker)");
+    }
+    try {
+        if (format == "openexr") return finish(detail::read_exr(path, size));
+        if (format == "png") return finish(detail::read_png(path, size));
+        if (format == "jpeg") return finish(detail::read_jpeg(path, size));
+        if (format == "tiff") detail::check_tiff_complete(path, size);
+        return finish(read_with_plugin(path, format, size));
+    } catch (const std::bad_alloc&) {
+        fail(path, "out of memory while reading");
+    } catch (const std::runtime_error& e) {
+        const std::string prefix = "cannot read '";
+        if (std::string(e.what()).rfind(prefix, 0) == 0) throw;  // already names the file
+        fail(path, e.what());
+    } catch (const std::exception& e) {
+        fail(path, e.what());
+    }
 }
 
 namespace {
@@ -163,47 +297,60 @@ std::function<void(int, int, float*)> rows_of(const std::vector<float>& values, 
     };
 }
 
-// Checks the buffer, runs `write`, and names the file in any error.
+using Fill = std::function<void(int, int, float*)>;
+
+// Checks the size, runs `write` with `fill` and names the file in any error
+// of the writer; an exception from `fill` itself (a cancel) passes unchanged.
 template <typename Fn>
-void write_checked(const std::string& path, int width, int height, int channels, size_t values, Fn&& write) {
+void write_checked(const std::string& path, int width, int height, int channels, size_t values, const Fill& fill,
+                   Fn&& write) {
     check_size(path, width, height, channels, values);
+    bool fill_threw = false;
+    const Fill guarded = [&](int y0, int rows, float* out) {
+        try {
+            fill(y0, rows, out);
+        } catch (...) {
+            fill_threw = true;
+            throw;
+        }
+    };
     try {
-        write();
+        write(guarded);
     } catch (const std::exception& e) {
-        throw std::runtime_error("cannot write '" + path + "': " + e.what());
+        if (fill_threw) throw;
+        throw std::runtime_error("cannot write '" + printable(path) + "': " + e.what());
     }
 }
 }  // namespace
 
 void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
                ExrPixel pixel) {
-    write_checked(path, width, height, channels, values.size(), [&] {
-        detail::write_exr_file_rows(path, width, height, channels, pixel == ExrPixel::Half,
-                                    rows_of(values, width, channels));
+    write_checked(path, width, height, channels, values.size(), rows_of(values, width, channels), [&](const Fill& f) {
+        detail::write_exr_file_rows(path, width, height, channels, pixel == ExrPixel::Half, f);
     });
 }
 
 void write_exr_rows(const std::string& path, int width, int height, int channels, ExrPixel pixel,
                     const std::function<void(int y0, int rows, float* out)>& fill) {
-    write_checked(path, width, height, channels, size_t(width) * height * channels, [&] {
-        detail::write_exr_file_rows(path, width, height, channels, pixel == ExrPixel::Half, fill);
+    write_checked(path, width, height, channels, size_t(width) * height * channels, fill, [&](const Fill& f) {
+        detail::write_exr_file_rows(path, width, height, channels, pixel == ExrPixel::Half, f);
     });
 }
 
 void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    write_checked(path, width, height, channels, values.size(),
-                  [&] { detail::write_png_file_rows(path, width, height, channels, 8, rows_of(values, width, channels)); });
+    write_checked(path, width, height, channels, values.size(), rows_of(values, width, channels),
+                  [&](const Fill& f) { detail::write_png_file_rows(path, width, height, channels, 8, f); });
 }
 
 void write_png8_rows(const std::string& path, int width, int height, int channels,
                      const std::function<void(int y0, int rows, float* out)>& fill) {
-    write_checked(path, width, height, channels, size_t(width) * height * channels,
-                  [&] { detail::write_png_file_rows(path, width, height, channels, 8, fill); });
+    write_checked(path, width, height, channels, size_t(width) * height * channels, fill,
+                  [&](const Fill& f) { detail::write_png_file_rows(path, width, height, channels, 8, f); });
 }
 
 void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    write_checked(path, width, height, channels, values.size(),
-                  [&] { detail::write_png_file_rows(path, width, height, channels, 16, rows_of(values, width, channels)); });
+    write_checked(path, width, height, channels, values.size(), rows_of(values, width, channels),
+                  [&](const Fill& f) { detail::write_png_file_rows(path, width, height, channels, 16, f); });
 }
 
 }  // namespace iblbake::io

@@ -5,10 +5,18 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <random>
+#include <regex>
+#include <set>
 #include <stdexcept>
 #include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "iblbake/io/text.h"
 
 namespace iblbake::io {
 
@@ -49,53 +57,154 @@ bool is_within(const fs::path& inner, const fs::path& outer) {  // inner == oute
     return true;
 }
 
-bool holds_a_bake(const fs::path& dir) {
-    std::ifstream f(dir / "manifest.json");
-    if (!f) return false;
-    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    return text.find("\"generator\": \"iblbake\"") != std::string::npos;
+std::string quoted(const fs::path& p) { return "'" + printable(p.string()) + "'"; }
+
+std::string read_text(const fs::path& p) {
+    std::ifstream f(p);
+    if (!f) return {};
+    return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
 }
 
+bool holds_a_bake(const fs::path& dir) {
+    return read_text(dir / "manifest.json").find("\"generator\": \"iblbake\"") != std::string::npos;
+}
+
+// What an earlier bake in `dir` wrote: the manifest's `files` (every file,
+// with its size and sha256) and `encodings`, its listed outputs, and any name
+// iblbake writes (for a manifest too damaged to parse).
+bool written_by_a_bake(const std::string& rel, const std::set<std::string>& listed) {
+    static const std::regex kOwn(R"((manifest\.json|preview\.png|(irradiance|brdf_lut|specular_[0-9]+)\.(exr|png)))");
+    return listed.count(rel) || std::regex_match(rel, kOwn);
+}
+
+std::set<std::string> files_of_manifest(const fs::path& dir) {
+    std::set<std::string> out;
+    const nlohmann::json m = nlohmann::json::parse(read_text(dir / "manifest.json"), nullptr, false);
+    if (!m.is_object()) return out;
+    for (const char* key : {"files", "encodings"})
+        if (m.contains(key) && m[key].is_object())
+            for (const auto& [name, v] : m[key].items()) out.insert(name);
+    for (const char* key : {"irradiance", "brdf_lut"})
+        if (m.contains(key) && m[key].is_object() && m[key].contains("file") && m[key]["file"].is_string())
+            out.insert(m[key]["file"].get<std::string>());
+    if (m.contains("specular") && m["specular"].is_array())
+        for (const auto& e : m["specular"])
+            if (e.is_object() && e.contains("file") && e["file"].is_string()) out.insert(e["file"].get<std::string>());
+    // Engine presets' folders (a manifest written before `files` was kept).
+    if (m.contains("presets") && m["presets"].is_object())
+        for (const auto& [name, e] : m["presets"].items()) {
+            if (!e.is_object() || !e.contains("dir") || !e["dir"].is_string() || !e.contains("files") ||
+                !e["files"].is_object())
+                continue;
+            for (const auto& [role, f] : e["files"].items())
+                if (f.is_string()) out.insert((fs::path(e["dir"].get<std::string>()) / f.get<std::string>()).generic_string());
+        }
+    return out;
+}
+
+// Files in a bake folder that its bake did not write (a user's notes, ...):
+// replacing the folder would delete them.
+std::vector<std::string> foreign_files(const fs::path& dir) {
+    const std::set<std::string> listed = files_of_manifest(dir);
+    std::vector<std::string> out;
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
+         it.increment(ec)) {
+        if (it->is_directory(ec)) continue;
+        const std::string rel = fs::relative(it->path(), dir, ec).generic_string();
+        if (!written_by_a_bake(rel, listed)) out.push_back(rel);
+    }
+    return out;
+}
+
+// Staging names: .NAME.iblbake-PID-XXXXXXXX, NAME cut to 200 bytes so that a
+// legal 255-byte folder name still leaves room for the tag.
 const char* kStagingTag = ".iblbake-";
+constexpr size_t kStagingNameMax = 200;
+
+std::string staging_prefix(const fs::path& destination) {
+    return "." + destination.filename().string().substr(0, kStagingNameMax) + kStagingTag;
+}
+
+// Staging folders (and swapped-out earlier bakes) of bakes that were killed,
+// whatever folder they were for: removed when their process no longer exists.
+void remove_stale_staging(const fs::path& parent) {
+    static const std::regex kStaging(R"(\..*\.iblbake-([0-9]+)-[0-9a-f]{8})");
+    std::error_code ec;
+    std::vector<fs::path> stale;
+    for (auto it = fs::directory_iterator(parent, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        std::smatch m;
+        if (!std::regex_match(name, m, kStaging)) continue;
+        const long pid = std::strtol(m[1].str().c_str(), nullptr, 10);
+        std::error_code e2;
+        if (pid > 0 && pid != ::getpid() && !fs::exists("/proc/" + std::to_string(pid), e2) && !e2)
+            stale.push_back(it->path());
+    }
+    for (const fs::path& p : stale) fs::remove_all(p, ec);
+}
 }  // namespace
 
 void check_replaceable(const fs::path& destination, const fs::path& keep) {
-    const fs::path dest = normalised(destination);
     std::error_code ec;
+    // A dangling symbolic link: the bake would replace the link, not fill its target.
+    const fs::path raw = destination.empty() ? destination : fs::absolute(destination, ec);
+    if (!raw.empty() && fs::is_symlink(fs::symlink_status(raw, ec)) && !fs::exists(raw, ec))
+        throw std::runtime_error("output " + quoted(raw) + " is a symbolic link to " +
+                                 quoted(fs::read_symlink(raw, ec)) +
+                                 ", which does not exist; remove the link or create its target");
+    for (const fs::path& part : destination)
+        if (part.native().size() > 255)
+            throw std::runtime_error("output " + quoted(destination) + ": the name " + quoted(fs::path(part.native().substr(0, 24) + "...")) +
+                                     " is " + std::to_string(part.native().size()) +
+                                     " bytes long; file systems allow 255");
+    const fs::path dest = normalised(destination);
     if (dest == dest.root_path()) throw std::runtime_error("refusing to write a bake over '/'");
     if (is_within(fs::current_path(ec), dest))
-        throw std::runtime_error("output folder '" + dest.string() + "' is the current folder or holds it");
+        throw std::runtime_error("output folder " + quoted(dest) + " is the current folder or holds it");
     if (!keep.empty() && is_within(fs::weakly_canonical(fs::absolute(keep)), dest))
-        throw std::runtime_error("output folder '" + dest.string() + "' holds the source image '" + keep.string() +
-                                 "'; choose another folder");
-    if (!fs::exists(dest, ec)) return;
-    if (!fs::is_directory(dest, ec))
-        throw std::runtime_error("output '" + dest.string() + "' exists and is not a folder");
-    if (fs::is_empty(dest, ec) || holds_a_bake(dest)) return;
-    throw std::runtime_error("output folder '" + dest.string() +
-                             "' exists and holds something other than an iblbake bake (no iblbake "
-                             "manifest.json); refusing to replace it");
+        throw std::runtime_error("output folder " + quoted(dest) + " holds the source image " + quoted(keep) +
+                                 "; choose another folder");
+    // The nearest existing folder above must take the staging folder.
+    fs::path parent = dest.parent_path();
+    while (!parent.empty() && parent != parent.root_path() && !fs::exists(parent, ec)) parent = parent.parent_path();
+    if (fs::exists(parent, ec) && ::access(parent.c_str(), W_OK | X_OK) != 0)
+        throw std::runtime_error("cannot write into " + quoted(parent) + ": " + std::strerror(errno));
+    const fs::file_status st = fs::status(dest, ec);
+    if (st.type() == fs::file_type::not_found) return;
+    if (ec) throw std::runtime_error("cannot use output " + quoted(dest) + ": " + ec.message());
+    if (st.type() != fs::file_type::directory)
+        throw std::runtime_error("output " + quoted(dest) + " exists and is not a folder");
+    if (fs::is_empty(dest, ec) && !ec) return;
+    if (!holds_a_bake(dest))
+        throw std::runtime_error("output folder " + quoted(dest) +
+                                 " exists and holds something other than an iblbake bake (no iblbake "
+                                 "manifest.json); refusing to replace it");
+    const std::vector<std::string> foreign = foreign_files(dest);
+    if (!foreign.empty()) {
+        std::string names;
+        for (size_t i = 0; i < foreign.size() && i < 3; ++i) names += (i ? ", '" : "'") + printable(foreign[i]) + "'";
+        if (foreign.size() > 3) names += " and " + std::to_string(foreign.size() - 3) + " more";
+        throw std::runtime_error("output folder " + quoted(dest) + " holds " + names +
+                                 ", which its earlier bake did not write; move it away or choose another folder");
+    }
+    // Replacing the folder removes the earlier bake's files: a read-only
+    // folder would be swapped out and then left behind, undeletable.
+    if (::access(dest.c_str(), W_OK | X_OK) != 0)
+        throw std::runtime_error("output folder " + quoted(dest) + " is read-only (" + std::strerror(errno) +
+                                 "): its earlier bake could not be removed; make it writable or choose another folder");
 }
 
 StagingDir::StagingDir(const fs::path& destination) : destination_(normalised(destination)) {
-    check_replaceable(destination_);
+    check_replaceable(destination);
     const fs::path parent = destination_.parent_path();
     std::error_code ec;
     fs::create_directories(parent, ec);
-    if (ec) throw std::runtime_error("cannot create '" + parent.string() + "': " + ec.message());
-    // Staging folders of bakes that were killed: named .NAME.iblbake-PID-XXXX,
-    // removed when that process no longer exists.
-    const std::string prefix = "." + destination_.filename().string() + kStagingTag;
-    for (const auto& e : fs::directory_iterator(parent, ec)) {
-        const std::string name = e.path().filename().string();
-        if (name.rfind(prefix, 0) != 0) continue;
-        const std::string rest = name.substr(prefix.size());
-        const long pid = std::strtol(rest.c_str(), nullptr, 10);
-        if (pid > 0 && !fs::exists("/proc/" + std::to_string(pid), ec)) fs::remove_all(e.path(), ec);
-    }
-    staging_ = parent / (prefix + std::to_string(::getpid()) + "-" + random_suffix());
+    if (ec) throw std::runtime_error("cannot create " + quoted(parent) + ": " + ec.message());
+    remove_stale_staging(parent);
+    staging_ = parent / (staging_prefix(destination_) + std::to_string(::getpid()) + "-" + random_suffix());
     if (!fs::create_directory(staging_, ec) || ec)
-        throw std::runtime_error("cannot create '" + staging_.string() + "': " + ec.message());
+        throw std::runtime_error("cannot create " + quoted(staging_) + ": " + ec.message());
 }
 
 StagingDir::~StagingDir() {
@@ -107,23 +216,26 @@ StagingDir::~StagingDir() {
 
 void StagingDir::commit() {
     std::error_code ec;
-    if (fs::exists(destination_)) {
+    if (fs::exists(destination_, ec)) {
         if (exchange(staging_, destination_)) {
             fs::remove_all(staging_, ec);  // staging_ now names the old bake
         } else {
+            // Named like a staging folder, so a kill here leaves nothing the next bake won't clean.
             const fs::path old = destination_.parent_path() /
-                                 ("." + destination_.filename().string() + ".old-" + random_suffix());
-            fs::rename(destination_, old);
+                                 (staging_prefix(destination_) + std::to_string(::getpid()) + "-" + random_suffix());
+            fs::rename(destination_, old, ec);
+            if (ec) throw std::runtime_error("cannot move the earlier bake out of " + quoted(destination_) + ": " + ec.message());
             fs::rename(staging_, destination_, ec);
             if (ec) {  // put the earlier bake back
                 std::error_code ec2;
                 fs::rename(old, destination_, ec2);
-                throw std::runtime_error("cannot move the bake into '" + destination_.string() + "': " + ec.message());
+                throw std::runtime_error("cannot move the bake into " + quoted(destination_) + ": " + ec.message());
             }
             fs::remove_all(old, ec);
         }
     } else {
-        fs::rename(staging_, destination_);
+        fs::rename(staging_, destination_, ec);
+        if (ec) throw std::runtime_error("cannot move the bake into " + quoted(destination_) + ": " + ec.message());
     }
     committed_ = true;
 }

@@ -1,39 +1,145 @@
-// PNG files through libpng: 8 or 16 bits, grey, RGB or RGBA; values arrive
-// already encoded (8-bit: sRGB or RGBM; 16-bit: linear, marked gAMA 1).
+// PNG files through libpng. Writing: 8 or 16 bits, grey, RGB or RGBA;
+// values arrive already encoded (8-bit: sRGB or RGBM; 16-bit: linear, marked
+// gAMA 1). Reading: any PNG (palette, grey, alpha, 1..16 bits, interlaced),
+// libpng's errors and warnings caught as text (never printed), the declared
+// size checked before the pixels are allocated.
 #include <png.h>
 
 #include <algorithm>
 #include <cmath>
+#include <csetjmp>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "raw_pixels.h"
 
 namespace iblbake::io::detail {
 
+namespace {
+struct ReadState {
+    std::jmp_buf jump;
+    std::string error;
+};
+
+extern "C" void png_read_error(png_structp png, png_const_charp msg) {
+    auto* st = static_cast<ReadState*>(png_get_error_ptr(png));
+    st->error = msg ? msg : "libpng error";
+    std::longjmp(st->jump, 1);
+}
+extern "C" void png_read_warning(png_structp, png_const_charp) {}  // benign ones; damage is an error
+}  // namespace
+
+namespace {
+struct PngOut {
+    png_uint_32 w = 0, h = 0;
+    int channels = 0, bytes = 1;
+    bool linear = false;
+    std::vector<unsigned char> buffer;
+    std::vector<png_bytep> rows;
+};
+
+// Every libpng call, in a frame of its own that holds no C++ object: an
+// error longjmps back here and the caller throws.
+bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FILE* f, uintmax_t file_size) {
+    if (setjmp(st->jump)) return false;
+    png_init_io(png, f);
+    png_read_info(png, info);
+    o->w = png_get_image_width(png, info);
+    o->h = png_get_image_height(png, info);
+    const int type = png_get_color_type(png, info), depth = png_get_bit_depth(png, info);
+    if (type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+    if (type == PNG_COLOR_TYPE_GRAY && depth < 8) png_set_expand_gray_1_2_4_to_8(png);
+    if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
+    if (depth == 16) png_set_swap(png);  // host order
+    png_set_interlace_handling(png);
+    png_read_update_info(png, info);
+    o->channels = png_get_channels(png, info);
+    o->bytes = png_get_bit_depth(png, info) == 16 ? 2 : 1;
+    check_declared(o->w, o->h, o->channels, file_size);  // throws before anything is allocated
+    double gamma = 0.0;
+    o->linear = png_get_gAMA(png, info, &gamma) && std::fabs(gamma - 1.0) < 0.01;
+    const size_t stride = png_get_rowbytes(png, info);
+    if (stride != size_t(o->w) * o->channels * o->bytes) {
+        st->error = "row size is inconsistent";
+        return false;
+    }
+    o->buffer.resize(stride * o->h);
+    o->rows.resize(o->h);
+    for (png_uint_32 y = 0; y < o->h; ++y) o->rows[y] = o->buffer.data() + y * stride;
+    png_read_image(png, o->rows.data());
+    png_read_end(png, nullptr);
+    return true;
+}
+}  // namespace
+
+RawPixels read_png(const std::string& path, uintmax_t file_size) {
+    std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+    if (!f) throw std::runtime_error("cannot open the file");
+    ReadState st;
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &st, png_read_error, png_read_warning);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    struct Guard {
+        png_structp* png;
+        png_infop* info;
+        ~Guard() {
+            if (*png) png_destroy_read_struct(png, info, nullptr);
+        }
+    } guard{&png, &info};
+    if (!png || !info) throw std::runtime_error("libpng could not start");
+    PngOut o;
+    if (!png_read_core(png, info, &st, &o, f.get(), file_size)) throw std::runtime_error("PNG " + st.error);
+    RawPixels out;
+    out.format = "png";
+    out.width = int(o.w);
+    out.height = int(o.h);
+    out.channels = o.channels;
+    out.alpha_channel = o.channels == 2 || o.channels == 4 ? o.channels - 1 : -1;
+    out.is_float = false;
+    out.colorspace = o.linear ? "linear" : "sRGB";
+    std::vector<png_bytep>().swap(o.rows);
+    out.data.resize(size_t(o.w) * o.h * o.channels);
+    const float scale = o.bytes == 2 ? 1.0f / 65535.0f : 1.0f / 255.0f;
+    if (o.bytes == 2) {
+        for (size_t k = 0; k < out.data.size(); ++k) {
+            uint16_t v;
+            std::memcpy(&v, &o.buffer[2 * k], 2);
+            out.data[k] = float(v) * scale;
+        }
+    } else {
+        for (size_t k = 0; k < out.data.size(); ++k) out.data[k] = float(o.buffer[k]) * scale;
+    }
+    return out;
+}
+
 void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,
-                         const std::function<void(int y0, int rows, float* out)>& fill) {
+                         const std::function<void(int y0, int rows, float* out)>& fill, int level) {
     std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
     if (!f) throw std::runtime_error("cannot open for writing");
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!png || !info) {
-        png_destroy_write_struct(&png, &info);
-        throw std::runtime_error("libpng could not start");
-    }
+    // Freed however this ends (an exception from `fill`, a cancel, included).
+    struct Guard {
+        png_structp* png;
+        png_infop* info;
+        ~Guard() {
+            if (*png) png_destroy_write_struct(png, info);
+        }
+    } guard{&png, &info};
+    if (!png || !info) throw std::runtime_error("libpng could not start");
     const int stride = width * channels * (bits / 8);
     std::vector<unsigned char> row(stride);
     // Bands of 64 rows from `fill`: no whole-image buffer.
     const int band = std::min(64, height);
     std::vector<float> values(size_t(width) * channels * band);
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        throw std::runtime_error("libpng failed");
-    }
+    if (setjmp(png_jmpbuf(png))) throw std::runtime_error("libpng failed (disk full?)");
     png_init_io(png, f.get());
-    png_set_compression_level(png, 6);
+    png_set_compression_level(png, level);
+    if (level <= 2) png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);  // one filter: no per-row search
     static const int kTypes[5] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
                                   PNG_COLOR_TYPE_RGB_ALPHA};
     png_set_IHDR(png, info, width, height, bits, kTypes[channels], PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
@@ -57,7 +163,43 @@ void write_png_file_rows(const std::string& path, int width, int height, int cha
         png_write_row(png, row.data());
     }
     png_write_end(png, nullptr);
+    if (std::fflush(f.get()) != 0 || std::ferror(f.get())) throw std::runtime_error("write failed (disk full?)");
+}
+
+namespace {
+void append_to_vector(png_structp png, png_bytep data, png_size_t length) {
+    auto* out = static_cast<std::vector<unsigned char>*>(png_get_io_ptr(png));
+    out->insert(out->end(), data, data + length);
+}
+void flush_nothing(png_structp) {}
+}  // namespace
+
+std::vector<unsigned char> encode_png8_memory(int width, int height, int channels, const unsigned char* values,
+                                              int level) {
+    std::vector<unsigned char> out;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, &info);
+        throw std::runtime_error("libpng could not start");
+    }
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        throw std::runtime_error("libpng failed");
+    }
+    png_set_write_fn(png, &out, &append_to_vector, &flush_nothing);
+    png_set_compression_level(png, level);
+    if (level <= 2) png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);  // one filter: no per-row search
+    static const int kTypes[5] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
+                                  PNG_COLOR_TYPE_RGB_ALPHA};
+    png_set_IHDR(png, info, width, height, 8, kTypes[channels], PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+                 PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    for (int y = 0; y < height; ++y)
+        png_write_row(png, const_cast<png_bytep>(values + size_t(y) * width * channels));
+    png_write_end(png, nullptr);
     png_destroy_write_struct(&png, &info);
+    return out;
 }
 
 }  // namespace iblbake::io::detail

@@ -1,6 +1,7 @@
 // What a file reader hands to read_image() before the shared finishing
 // (display window, channel choice, sRGB decode). Private to io/.
 #pragma once
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -21,11 +22,22 @@ struct RawPixels {
 // The OpenEXR reader and writer (exr_file.cpp) and the PNG writer (png_file.cpp); the writers take
 // their pixels in bands of rows from `fill` (io::write_exr and friends hand them a whole buffer so).
 bool is_exr(const std::string& path);
-RawPixels read_exr(const std::string& path);
+// Throws unless width x height x channels floats is within the maximum size
+// and plausible for a file of `file_size` bytes (io/image_io.h).
+void check_declared(int64_t width, int64_t height, int channels, uintmax_t file_size);
+RawPixels read_exr(const std::string& path, uintmax_t file_size);
+RawPixels read_png(const std::string& path, uintmax_t file_size);
+RawPixels read_jpeg(const std::string& path, uintmax_t file_size);
+// Throws unless every strip or tile a TIFF's first image lists lies within
+// the file (libtiff reads a cut file's missing strips as black, quietly).
+void check_tiff_complete(const std::string& path, uintmax_t file_size);
 void write_exr_file_rows(const std::string& path, int width, int height, int channels, bool half,
                          const std::function<void(int y0, int rows, float* out)>& fill);
+// zlib level 6 unless told (1 is several times faster for 20 % more bytes).
 void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,
-                         const std::function<void(int y0, int rows, float* out)>& fill);
+                         const std::function<void(int y0, int rows, float* out)>& fill, int level = 6);
+std::vector<unsigned char> encode_png8_memory(int width, int height, int channels, const unsigned char* values,
+                                              int level);
 
 // The plugin's C interface (oiio_plugin.cpp, built as libiblbake_oiio.so and
 // loaded only for files that are not EXR, so that baking EXR never loads
@@ -37,7 +49,12 @@ struct IblbakeOiioImage {
     char format[32];
     float* data;  // malloc'ed by the plugin; free with iblbake_oiio_free
 };
-typedef int (*IblbakeOiioRead)(const char* path, IblbakeOiioImage* out, char* error, int error_size);
+// Reads `path` with OpenImageIO's reader of `format` alone ("png", "jpeg", ...).
+// Returns 1 on success; 0 with `error` set on failure; 2 when the declared
+// size (out->width, height, channels) exceeds max_side or max_values floats,
+// before any pixel is allocated.
+typedef int (*IblbakeOiioRead)(const char* path, const char* format, long long max_side, long long max_values,
+                               IblbakeOiioImage* out, char* error, int error_size);
 typedef void (*IblbakeOiioFree)(float* data);
 }
 

@@ -29,6 +29,21 @@ enum class SpecularMethod {
 const char* specular_method_name(SpecularMethod m);
 SpecularMethod specular_method_from_name(const std::string& name);  // throws std::invalid_argument
 
+// Outputs beyond SPEC's, for engine exports (export/plan.h fills this from
+// the presets asked for): more specular levels, each integrated at its own
+// roughness, and what else a preset writes.
+struct SpecularLevelRequest {
+    int face_size = 0;
+    double roughness = 0.0;
+};
+struct ExtraOutputs {
+    std::vector<SpecularLevelRequest> specular;  // not already among SPEC's levels
+    bool irradiance = false;                     // the irradiance cube even when `irradiance` is off
+    std::vector<LutModel> luts;                  // LUTs of more models, at lut_size
+    bool keep_source = false;                    // the cleaned source image in the result
+    bool any() const { return !specular.empty() || irradiance || !luts.empty() || keep_source; }
+};
+
 struct BakeOptions {
     int face_size = 256;        // specular mip 0
     int irradiance_size = 32;
@@ -52,12 +67,24 @@ struct BakeOptions {
     int max_hot = 1024;               // ... and at most this many
     bool strict = false;              // bad texels are an error instead of 0
     int threads = 0;                  // 0: all cores
+    ExtraOutputs extra;               // for engine presets
+    // The caller's warnings (an odd file, an ignored option, ...): the
+    // result's `warnings` start with them.
+    std::vector<std::string> warnings;
 
     // Throws std::invalid_argument naming the option at fault.
     void validate() const;
     int resolved_mip_count() const;
     int resolved_last_level() const;
     double mip_roughness(int level) const;  // SPEC: r_m = m / (M - 1)
+};
+
+struct ExtraSpecularLevel {
+    int face_size = 0;
+    double roughness = 0.0;
+    Cubemap cube;
+    size_t samples_per_texel = 0;
+    std::string method;
 };
 
 struct BakeResult {
@@ -78,7 +105,17 @@ struct BakeResult {
     std::vector<size_t> samples_per_texel;  // per specular level (bins per texel, hierarchical)
     std::vector<std::string> specular_methods;
     bool lut_from_cache = false;
+    // The instruction set the hierarchical specular sum ran on (ibl/specular.h's
+    // specular_kernel_isa()); empty when no level used it.
+    std::string specular_kernel;
     int integration_width = 0, integration_height = 0;  // the grid the integrals ran on
+    // What options.extra asked for (engine presets).
+    std::vector<ExtraSpecularLevel> extra_specular;
+    std::optional<Cubemap> extra_irradiance;  // when `irradiance` is off
+    std::vector<std::pair<LutModel, Image>> extra_luts;
+    std::optional<Image> source;              // the cleaned source (keep_source)
+    // Questionable input that was baked anyway (the manifest's `warnings`).
+    std::vector<std::string> warnings;
 };
 
 struct Cancelled : std::runtime_error {
@@ -108,9 +145,13 @@ public:
 };
 
 // The whole bake in memory. `source` is a Blender lat-long image; it is
-// cleaned in place (SPEC.md section 1). With a `lut_cache`, the LUT is read
+// cleaned in place (SPEC.md section 1). Every output is checked to be
+// finite before the bake returns: a non-finite value (a source changed
+// while it was read, a damaged table) makes it throw std::runtime_error
+// instead of reporting success. With a `lut_cache`, the LUT is read
 // from it when present and stored into it when made. With a `sink`, every
-// output is handed to it as soon as it is made.
+// SPEC output is handed to it as soon as it is made (the extra outputs
+// stay in the result, for the exports).
 BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {},
                         LutCache* lut_cache = nullptr, OutputSink* sink = nullptr);
 // The same bake of pixels owned elsewhere (a numpy array): a clean source is

@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "iblbake/bake/bake.h"
+#include "iblbake/export/preset.h"
+#include "iblbake/export/layout.h"
 
 namespace iblbake {
 
@@ -18,11 +20,18 @@ struct WriteOptions {
     PngEncoding png_encoding = PngEncoding::Srgb;
     float exposure = 0.0f;       // stops, PNG only
     float rgbm_range = 8.0f;
+    bool preview = false;        // also preview.png, the contact sheet of image/preview.h
     // More top-level manifest keys (e.g. what a Blender world was turned
     // into); they may not replace the contract's own keys.
     nlohmann::json manifest_extra = nlohmann::json::object();
+    // Engine presets: each writes its files into OUT/<name>/ (docs/export.md).
+    std::vector<Preset> presets;
+    CubeLayout layout = CubeLayout::HCross;  // how the crosses at OUT/ are laid out
     void validate() const;  // throws std::invalid_argument
 };
+
+// `bo` with what the presets of `wo` need from the bake (bo.extra; export/plan.h).
+BakeOptions with_exports(BakeOptions bo, const WriteOptions& wo);
 
 struct SourceInfo {
     std::string path;    // empty for in-memory sources
@@ -36,23 +45,34 @@ struct SourceInfo {
 nlohmann::json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOptions& wo,
                              const SourceInfo& src, const nlohmann::json& encodings, double write_seconds = -1.0);
 
+// preview.png of a bake (image/preview.h), 8-bit sRGB.
+void write_preview(const std::string& path, const BakeResult& r);
+
 // Writes a bake's files as they come, each on its own task, in parallel
 // with each other and with the rest of the bake (an OutputSink for
 // compute_bake), into a staging folder beside `outdir` (io/output_dir.h);
-// finish() adds manifest.json and swaps the folder in. Destroyed without
-// finish() (a failed or cancelled bake), it removes what it wrote.
+// finish() writes what needs the whole result (preview.png, the engine
+// presets' files), lists every file with its size and sha256 in
+// manifest.json and swaps the folder in. Destroyed without finish() (a
+// failed or cancelled bake), it stops its writes and removes what it wrote.
+// `progress` ("writing", 1.0) is polled between bands of rows once the bake
+// is computed (in finish()), from any thread, one call at a time; false, or
+// an exception from it, cancels the write and leaves `outdir` as it was.
 class BakeWriter : public OutputSink {
 public:
-    BakeWriter(const std::filesystem::path& outdir, const WriteOptions& wo);
+    BakeWriter(const std::filesystem::path& outdir, const WriteOptions& wo, const ProgressFn& progress = {});
     ~BakeWriter() override;
     BakeWriter(const BakeWriter&) = delete;
     BakeWriter& operator=(const BakeWriter&) = delete;
     void cube(const std::string& stem, const Cubemap& cube) override;
     void lut(const Image& lut) override;
     void wait() override;
-    // Waits for the files, writes the manifest (its "write" timing: the wait,
-    // the manifest and the swap, what the writing added to the bake's wall
-    // time) and commits. Returns the manifest.
+    // The bake is computed: writes poll `progress` from now on (finish() says so itself).
+    void computed();
+    // Waits for the files, writes the rest and the manifest (its "write"
+    // timing: what the writing added to the bake's wall time once the
+    // outputs were computed) and commits. `bo` must be the options the bake
+    // ran with (with_exports). Returns the manifest.
     nlohmann::json finish(const BakeResult& r, const BakeOptions& bo, const SourceInfo& src);
 
 private:
@@ -61,8 +81,9 @@ private:
 };
 
 // Write every output and manifest.json into `outdir`, atomically (a
-// BakeWriter handed everything at once). Returns the manifest.
+// BakeWriter handed everything at once). The manifest's `files` records
+// each file's size and sha256; `progress` as BakeWriter's. Returns the manifest.
 nlohmann::json write_bake(const BakeResult& r, const std::filesystem::path& outdir, const BakeOptions& bo,
-                          const WriteOptions& wo, const SourceInfo& src);
+                          const WriteOptions& wo, const SourceInfo& src, const ProgressFn& progress = {});
 
 }  // namespace iblbake

@@ -1,6 +1,7 @@
 // GGX prefiltered specular radiance (SPEC.md section 3), N = V = R = n:
 //   Pre(n, r) = int L(w) D(h) max(0, n.w) dw / int D(h) max(0, n.w) dw.
 #pragma once
+#include <string>
 #include <vector>
 
 #include "iblbake/ibl/bin_tree.h"
@@ -60,6 +61,34 @@ struct HierarchicalQuality {
 // by eps, with no sampling noise and no clamping.
 // Returns the mean number of bins per texel.
 double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {});
+
+// Up to four levels of one face size in one pass (engine presets bake levels
+// at nearby roughness values): one traversal, by the narrowest lobe among
+// them and the strictest horizon rule (bins at least as fine as each lobe
+// alone would use, so none loses accuracy), each bin's fields loaded and its
+// distance and variance computed once for every lobe; each lobe divided by
+// its own closed-form normaliser. A level's values depend on its group (on
+// the bins the narrowest lobe chose) within the integration error.
+// Returns the mean number of bins per texel.
+struct SpecularGroupTarget {
+    Cubemap* dst;
+    double roughness;
+};
+double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, const BinTree& tree,
+                                   const HierarchicalQuality& q = {});
+// Whether these roughness values can share a group: at most four, each in (0, 1].
+bool specular_group_safe(const std::vector<double>& roughness);
+
+// The instruction set the hierarchical sum's kernel runs on: "avx512",
+// "avx2" or "baseline" (x86-64 with SSE2, or any other CPU). The library is
+// built for the baseline; the best kernel the CPU has is chosen once per
+// process, unless the environment variable IBLBAKE_ISA names a lesser one
+// (baseline, avx2, avx512).
+const char* specular_kernel_isa();
+// Switches the kernel ("" = the best the CPU has), for tests and
+// measurements. Returns false (and changes nothing) when the CPU lacks it;
+// throws std::invalid_argument for an unknown name.
+bool set_specular_kernel_isa(const std::string& isa);
 
 // The eps a level of this face size uses: q.eps from face 64 up, less below
 // (sqrt(face / 64), at least half): small levels are cheap and their wide

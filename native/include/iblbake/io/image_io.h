@@ -3,6 +3,7 @@
 // is read (src/io/oiio_plugin.cpp), so baking EXR starts in milliseconds.
 // Nothing else in the library reads or writes image files.
 #pragma once
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -16,12 +17,31 @@ struct LoadedImage {
     int source_channels;  // as stored in the file
     bool linearised;      // an integer sRGB file was converted to linear
     std::string format;   // OpenImageIO's format name ("openexr", "hdr", "png", ...)
+    std::vector<std::string> warnings;  // what was odd but readable (a 2-channel file, a cropped window, ...)
 };
 
-// EXR, Radiance .hdr, PNG, JPEG (anything OpenImageIO reads). Grey is
-// expanded, alpha dropped; integer (8/16-bit) files are treated as sRGB and
-// linearised unless they declare a linear colour space. Throws
-// std::runtime_error with a one-line reason on missing, empty or corrupt files.
+// The largest source any reader (and bake()) accepts, checked before
+// anything is allocated: at most kMaxSourceSide on a side and
+// kMaxSourcePixels in all (32768 x 16384: 6.4 GB of RGB floats).
+constexpr int64_t kMaxSourceSide = 65536;
+constexpr int64_t kMaxSourcePixels = int64_t(32768) * 16384;
+// A file must hold at least one byte per kMaxExpansion bytes of the float
+// pixels its header declares (no codec of these formats packs more; a
+// 500-byte header declaring gigabytes is refused before any allocation).
+constexpr int64_t kMaxExpansion = 65536;
+// Throws std::runtime_error (one line) when a width x height image is empty
+// or larger than the maximum; `what` names it ("image", "display window").
+void check_source_size(int64_t width, int64_t height, const std::string& what = "image");
+
+// EXR, Radiance .hdr, PNG, JPEG, TIFF and the other formats OpenImageIO
+// reads, the format told by the file's first bytes, else by its extension
+// (no probing of every reader). Grey is expanded, alpha dropped; integer
+// (8/16-bit) files are treated as sRGB and linearised unless they declare a
+// linear colour space. Throws std::runtime_error with a one-line reason on
+// missing, empty, non-regular (FIFO, device), truncated, corrupt or
+// oversized files. An EXR's display window is baked when it holds the data
+// window and is at most 4 times its size (outside the data is black),
+// else the data window alone, with a warning.
 LoadedImage read_image(const std::string& path);
 
 enum class ExrPixel { Half, Float };
@@ -43,5 +63,19 @@ void write_png8_rows(const std::string& path, int width, int height, int channel
                      const std::function<void(int y0, int rows, float* out)>& fill);
 // 16-bit PNG from values in [0, 1].
 void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
+
+// An 8-bit PNG's bytes in memory from width * height * channels bytes (rows
+// top to bottom), with no gamma or colour chunk: the bytes are data (the
+// RGBD faces of a Babylon .env).
+// zlib level 1 by default: several times faster than 6, for about 20 % more bytes.
+std::vector<uint8_t> encode_png8(int width, int height, int channels, const uint8_t* values, int level = 1);
+// write_png16 at zlib level 1 (the exported LUTs).
+void write_png16_fast(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
+// Radiance HDR (RGBE; run-length scanlines of literal dumps) from an RGB float image (rows top to bottom).
+void write_hdr(const std::string& path, const Image& img);
+// RGBE of one colour, as Ward's float2rgbe (exposed for tests).
+void float_to_rgbe(const float rgb[3], uint8_t out[4]);
+// A file of these bytes (exported containers).
+void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes);
 
 }  // namespace iblbake::io

@@ -1,0 +1,131 @@
+"""Plain words for the panel (no bpy): what a bake will skip and why, a long
+path shortened in the middle, file lists and sizes."""
+import json
+import os
+from typing import List, Optional, Tuple
+
+from .needs import Needs
+
+
+def _levels(n: int) -> str:
+    return "%d specular level%s" % (n, "" if n == 1 else "s")
+
+
+def _roughness_words(lo: float, hi: float) -> str:
+    if abs(hi - lo) < 1e-6:
+        return "all use roughness %.2g" % lo
+    return "use roughness %.2g to %.2g" % (lo, hi)
+
+
+def needs_sentences(needs: Needs, mip_count: int, scene_only: bool, presets: Tuple[str, ...] = ()) -> List[str]:
+    """What the bake will hold, in words an artist reads at a glance, e.g.
+    "Only 1 of 9 specular levels: this scene's materials all use roughness 0.5"."""
+    if not scene_only:
+        return ["Everything: irradiance, all %s, the BRDF LUT" % _levels(mip_count)]
+    if presets:
+        return ["Everything: engine presets (%s) need every level" % ", ".join(presets)]
+    if not needs.analysed:
+        return ["Everything: no visible object to read materials from"]
+    out = []
+    if not needs.irradiance:
+        out.append("No irradiance: no visible material is diffuse")
+    if not needs.specular:
+        out.append("No specular and no LUT: no visible material is glossy")
+    elif needs.levels is not None:
+        first, last = needs.levels
+        count = last - first + 1
+        lo, hi = needs.roughness
+        if count < mip_count:
+            out.append("Only %d of %d specular levels (%s): this scene's materials %s"
+                       % (count, mip_count, ("level %d" % first) if count == 1 else ("levels %d-%d" % (first, last)),
+                          _roughness_words(lo, hi)))
+        else:
+            out.append("All %s: this scene's materials %s" % (_levels(mip_count), _roughness_words(lo, hi)))
+    if not out:
+        out.append("Everything: this scene's materials use all of it")
+    return out
+
+
+def shorten_middle(text: str, max_chars: int) -> str:
+    """`text` in at most max_chars characters, cut in the middle ("/home/a/…/ibl/World")
+    so that its end (the folder's own name) stays visible."""
+    max_chars = max(5, int(max_chars))
+    if len(text) <= max_chars:
+        return text
+    keep = max_chars - 1
+    tail = (keep * 2 + 2) // 3  # the end matters most
+    head = keep - tail
+    return text[:head] + "\u2026" + text[len(text) - tail:]
+
+
+def human_size(n: int) -> str:
+    size = float(n)
+    for unit in ("B", "KB", "MB", "GB"):
+        if size < 1024 or unit == "GB":
+            return ("%d %s" % (size, unit)) if unit == "B" else ("%.1f %s" % (size, unit))
+        size /= 1024.0
+    return "%d B" % n
+
+
+def bake_files(out_dir: str) -> Tuple[List[Tuple[str, int]], int]:
+    """([(file name, bytes)], total bytes) of a bake's folder, the manifest first."""
+    try:
+        names = sorted(os.listdir(out_dir))
+    except OSError:
+        return [], 0
+    names.sort(key=lambda n: (n != "manifest.json", n != "preview.png", n))
+    files = []
+    for name in names:
+        path = os.path.join(out_dir, name)
+        if os.path.isfile(path):
+            files.append((name, os.path.getsize(path)))
+    return files, sum(s for _, s in files)
+
+
+def manifest_of(out_dir: str) -> Optional[dict]:
+    try:
+        with open(os.path.join(out_dir, "manifest.json")) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
+
+def grouped_files(files: List[Tuple[str, int]]) -> List[Tuple[str, int]]:
+    """A bake's files for a short list: the specular levels of one extension
+    as one line ("specular_0-8.exr (9 files)"), the others one by one."""
+    out, levels = [], {}
+    for name, size in files:
+        stem, ext = os.path.splitext(name)
+        if stem.startswith("specular_") and stem[9:].isdigit():
+            levels.setdefault(ext, []).append((int(stem[9:]), size))
+            continue
+        out.append((name, size))
+    for ext, items in sorted(levels.items()):
+        items.sort()
+        first, last = items[0][0], items[-1][0]
+        if len(items) == 1:
+            out.append(("specular_%d%s" % (first, ext), items[0][1]))
+        else:
+            out.append(("specular_%d-%d%s (%d files)" % (first, last, ext, len(items)), sum(s for _, s in items)))
+    return out
+
+
+def thumbnail(linear_rgb, width: int = 256):
+    """A small display-encoded (sRGB) RGBA copy of an image read linear
+    (iblbake_core.read_image of preview.png), rows bottom-up as Blender's
+    previews hold them: (h, width, 4) float32. Box filtered; numpy only, so a
+    worker thread makes it."""
+    import numpy as np
+    img = np.asarray(linear_rgb, dtype=np.float32)
+    h, w = img.shape[:2]
+    width = max(1, min(width, w))
+    height = max(1, int(round(h * width / w)))
+    ys = (np.arange(height + 1) * h // height).astype(int)
+    xs = (np.arange(width + 1) * w // width).astype(int)
+    rows = np.add.reduceat(img, ys[:-1], axis=0) / np.diff(ys)[:, None, None]
+    small = np.add.reduceat(rows, xs[:-1], axis=1) / np.diff(xs)[None, :, None]
+    small = np.clip(small, 0.0, 1.0)
+    enc = np.where(small <= 0.0031308, small * 12.92, 1.055 * np.power(small, 1 / 2.4) - 0.055)
+    out = np.ones((height, width, 4), np.float32)
+    out[..., :3] = enc
+    return np.ascontiguousarray(out[::-1])

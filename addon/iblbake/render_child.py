@@ -1,0 +1,32 @@
+"""Renders a world with Cycles in a child Blender for the UI's bake
+(world_reader.ChildRender starts it; the open Blender stays live and Esc
+ends this process):
+
+  blender -b --factory-startup --python render_child.py -- WORLD.blend NAME WIDTH SAMPLES FRAME OUT.exr NOTES.json
+
+WORLD.blend holds the world (and what it uses); an empty path renders no
+world. The render is world_reader.render_world_to_file, the same code the
+headless bake runs in-process."""
+import json
+import os
+import sys
+
+import bpy
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from iblbake import world_reader  # noqa: E402  (the package folder is named iblbake in every install)
+
+
+def main(argv):
+    blend, name, width, samples, frame, out, notes_path = argv
+    world = None
+    if blend:
+        with bpy.data.libraries.load(blend) as (src, dst):
+            dst.worlds = [name]
+        world = dst.worlds[0]
+    notes = world_reader.render_world_to_file(world, int(width), int(samples), int(frame), out)
+    with open(notes_path, "w") as f:
+        json.dump(notes, f)
+
+
+main(sys.argv[sys.argv.index("--") + 1:])

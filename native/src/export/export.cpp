@@ -1,0 +1,230 @@
+#include "iblbake/export/export.h"
+
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+
+#include "iblbake/export/container.h"
+#include "iblbake/export/convert.h"
+#include "iblbake/io/image_io.h"
+
+namespace iblbake {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+const Cubemap& baked_level(const BakeResult& r, int face_size, double roughness) {
+    for (size_t i = 0; i < r.specular.size(); ++i)
+        if (r.specular[i].size == face_size && same_roughness(r.roughness[i], roughness)) return r.specular[i];
+    for (const ExtraSpecularLevel& e : r.extra_specular)
+        if (e.face_size == face_size && same_roughness(e.roughness, roughness)) return e.cube;
+    throw std::logic_error("the bake holds no specular level of face " + std::to_string(face_size) + " at roughness " +
+                           std::to_string(roughness));
+}
+
+std::vector<double> sh_coefficients(const std::array<Sh9, 3>& sh) {
+    std::vector<double> out;
+    for (int i = 0; i < 9; ++i)
+        for (int c = 0; c < 3; ++c) out.push_back(sh[c][i]);
+    return out;
+}
+
+namespace {
+
+std::string sh_text(const std::array<Sh9, 3>& sh) {
+    std::string s;
+    char buf[64];
+    for (int i = 0; i < 9; ++i) {
+        std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g\n", sh[0][i], sh[1][i], sh[2][i]);
+        s += buf;
+    }
+    return s;
+}
+
+std::string sh_form_text(const Preset& p) {
+    switch (p.sh) {
+        case ShForm::Raw:
+            return "sh9: the radiance's SH9 (SPEC section 5), three.js SphericalHarmonics3 order and constants, "
+                   "coefficient by coefficient (r g b)" +
+                   std::string(p.sh_mirrored ? ", mirrored" : ", not mirrored (evaluated at the world normal)");
+        case ShForm::Filament:
+            return "filament: pre-scaled irradiance SH, sh9 x k (k = A_l c_lm / pi), as the KTX1 `sh` key and "
+                   "IndirectLight::Builder::irradiance(3, sh)";
+        case ShForm::BabylonPolynomial:
+            return "babylon-polynomial: SphericalPolynomial x, y, z, xx, yy, zz, yz, zx, xy (r g b each), "
+                   "evaluating to Irr, from the mirrored sh9";
+        case ShForm::None: break;
+    }
+    return "";
+}
+
+json file_entry(const std::string& name, const Encoded& e) {
+    return {{"file", name}, {"bytes", e.bytes.size()}, {"clamped_texels", e.stats.clamped},
+            {"largest_value", e.stats.largest}};
+}
+
+std::string lod_text(const Preset& p, int levels, int n0) {
+    std::string s = p.lod_formula;
+    if (p.curve == RoughnessCurve::Linear || p.curve == RoughnessCurve::Filament)
+        s += "; here T = " + std::to_string(levels - 1);
+    if (p.curve == RoughnessCurve::Babylon) s += "; here N0 = " + std::to_string(n0);
+    return s;
+}
+
+json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& plan, const fs::path& root,
+                const std::string& writer) {
+    const Preset& p = plan.preset;
+    const fs::path dir = root / p.name;
+    fs::create_directories(dir);
+    json files = json::object(), written = json::array();
+    auto put = [&](const std::string& role, const std::string& name, const Encoded& e) {
+        io::write_bytes((dir / name).string(), e.bytes);
+        files[role] = name;
+        written.push_back(file_entry(name, e));
+    };
+    EncodeOptions eo;
+    eo.format = p.format;
+    eo.zstd = p.zstd;
+    eo.writer = writer;
+    const std::array<Sh9, 3> sh = p.sh_mirrored ? mirror_sh9(r.sh9, p.mirror) : r.sh9;
+
+    json m;
+    m["dir"] = p.name;
+    m["description"] = p.description;
+    m["container"] = container_name(p.container);
+    m["format"] = pixel_format_name(p.format);
+    m["supercompression"] = p.zstd ? "zstd" : "none";
+    m["mirror"] = mirror_name(p.mirror);
+    m["curve"] = curve_name(p.curve);
+
+    if (p.container == Container::Source) {
+        if (!r.source) throw std::logic_error("the bake kept no source for the source preset");
+        io::write_exr((dir / "source.exr").string(), *r.source, io::ExrPixel::Float);
+        io::write_hdr((dir / "source.hdr").string(), *r.source);
+        files["source"] = "source.exr";
+        files["source_hdr"] = "source.hdr";
+        written.push_back({{"file", "source.exr"}, {"encoding", "float"}});
+        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}});
+        m["specular"] = json::array();
+        m["lod_formula"] = nullptr;
+        m["source"] = {{"width", r.source->width}, {"height", r.source->height},
+                       {"orientation", "SPEC section 1 (Blender's equirectangular: centre column looks along +X)"}};
+    } else {
+        std::vector<const Cubemap*> cubes;
+        json levels = json::array();
+        for (const PresetLevel& l : plan.levels) {
+            cubes.push_back(&baked_level(r, l.face_size, l.roughness));
+            levels.push_back({{"level", l.level}, {"face_size", l.face_size}, {"roughness", l.roughness}});
+        }
+        m["specular"] = levels;
+        m["lod_formula"] = lod_text(p, int(plan.levels.size()), plan.base_face);
+        const CubeChain chain{cubes, p.mirror};
+        switch (p.container) {
+            case Container::Ktx2: put("specular", "specular.ktx2", encode_ktx2(chain, eo)); break;
+            case Container::Dds: put("specular", "specular.dds", encode_dds(chain, eo)); break;
+            case Container::Ktx1: {
+                EncodeOptions k = eo;
+                k.key_values.emplace_back("sh", sh_text(filament_sh(sh)));
+                put("specular", "ibl.ktx", encode_ktx1(chain, k));
+                if (p.skybox)
+                    put("skybox", "skybox.ktx", encode_ktx1(CubeChain{{chain.levels[0]}, p.mirror}, eo));
+                break;
+            }
+            case Container::Env: {
+                EncodeOptions e = eo;
+                e.polynomial = babylon_polynomial(sh);
+                put("environment", "environment.env", encode_env(chain, e));
+                break;
+            }
+            case Container::Source: break;
+        }
+        if (p.diffuse == DiffuseForm::Cube) {
+            const Cubemap* irr = r.irradiance ? &*r.irradiance : r.extra_irradiance ? &*r.extra_irradiance : nullptr;
+            if (!irr) throw std::logic_error("the bake made no irradiance for preset " + p.name);
+            const CubeChain d{{irr}, p.mirror};
+            put("diffuse", "diffuse." + std::string(p.container == Container::Ktx2 ? "ktx2" : "dds"),
+                encoder_for(p.container)(d, eo));
+            m["diffuse_face_size"] = irr->size;
+        }
+    }
+    if (p.lut) {
+        const Image* lut = nullptr;
+        if (r.lut && bo.lut_model == p.lut_model) lut = &*r.lut;
+        for (const auto& [model, img] : r.extra_luts)
+            if (model == p.lut_model) lut = &img;
+        if (!lut) throw std::logic_error("the bake made no " + std::string(lut_model_name(p.lut_model)) + " LUT");
+        std::vector<float> v(lut->pixels.size());
+        for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut->pixels[k], 0.0f, 1.0f);
+        io::write_png16_fast((dir / "brdf_lut.png").string(), lut->width, lut->height, 3, v);
+        files["lut"] = "brdf_lut.png";
+        written.push_back({{"file", "brdf_lut.png"}, {"encoding", "unorm16"}});
+        m["lut"] = {{"file", "brdf_lut.png"},
+                    {"size", lut->width},
+                    {"model", lut_model_name(p.lut_model)},
+                    {"channels", {{"r", "A (scale of F0)"}, {"g", "B (bias)"}, {"b", "0"}}},
+                    {"axes", {{"x", "NdotV = (i + 0.5) / N"}, {"y", "roughness = (j + 0.5) / N, j from the top row"}}}};
+    } else {
+        m["lut"] = nullptr;
+    }
+    m["files"] = files;
+    m["written"] = written;
+    if (p.sh == ShForm::None) {
+        m["sh"] = nullptr;
+    } else if (p.sh == ShForm::BabylonPolynomial) {
+        const Polynomial poly = babylon_polynomial(sh);
+        m["sh"] = {{"form", sh_form_text(p)},
+                   {"coefficients", {{"x", poly.x}, {"y", poly.y}, {"z", poly.z}, {"xx", poly.xx}, {"yy", poly.yy},
+                                     {"zz", poly.zz}, {"yz", poly.yz}, {"zx", poly.zx}, {"xy", poly.xy}}}};
+    } else {
+        m["sh"] = {{"form", sh_form_text(p)},
+                   {"coefficients", sh_coefficients(p.sh == ShForm::Filament ? filament_sh(sh) : sh)}};
+    }
+    m["diffuse"] = p.diffuse_note;
+    m["notes"] = p.notes;
+    return m;
+}
+
+}  // namespace
+
+std::vector<ExportJob> export_jobs(const BakeResult& r, const BakeOptions& bo, const std::vector<PresetPlan>& plans,
+                                   const fs::path& dir, const std::string& writer) {
+    std::vector<ExportJob> jobs;
+    for (const PresetPlan& plan : plans)
+        jobs.push_back({plan.preset.name, [&r, &bo, &plan, dir, writer] { return run_preset(r, bo, plan, dir, writer); }});
+    return jobs;
+}
+
+json presets_json() {
+    json out = json::array();
+    for (const Preset& p : preset_table()) {
+        json formats = json::array();
+        for (PixelFormat f : p.formats) formats.push_back(pixel_format_name(f));
+        const int levels_256 = preset_level_count(p, 256);
+        json r256 = json::array();
+        if (p.container != Container::Source)
+            for (int m = 0; m < levels_256; ++m) r256.push_back(preset_roughness(p, m, levels_256, 256));
+        out.push_back({{"name", p.name},
+                       {"description", p.description},
+                       {"container", container_name(p.container)},
+                       {"format", pixel_format_name(p.format)},
+                       {"formats", formats},
+                       {"supercompression", p.zstd ? "zstd" : "none"},
+                       {"mirror", mirror_name(p.mirror)},
+                       {"curve", curve_name(p.curve)},
+                       {"lod_formula", p.lod_formula},
+                       {"levels", p.container == Container::Source ? json(nullptr) : json(p.smallest == 1
+                                                                      ? "N0 down to 1 x 1"
+                                                                      : "N0 down to " + std::to_string(p.smallest) +
+                                                                            " px")},
+                       {"smallest", p.smallest},
+                       {"roughness_at_256", r256},
+                       {"diffuse", diffuse_name(p.diffuse)},
+                       {"diffuse_note", p.diffuse_note},
+                       {"sh", sh_form_name(p.sh)},
+                       {"lut", p.lut ? json(lut_model_name(p.lut_model)) : json(nullptr)},
+                       {"notes", p.notes}});
+    }
+    return out;
+}
+
+}  // namespace iblbake
