@@ -202,9 +202,12 @@ int main(int argc, char** argv) {
         for (const auto& w : m["warnings"]) std::cerr << "iblbake: warning: " << w.get<std::string>() << "\n";
         if (!quiet) {
             const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-            std::printf("baked %s -> %s in %.3f s (reading included; %zu specular levels, bad pixels: %llu)\n",
+            const std::string kernel = m["specular_kernel"].is_string()
+                                           ? ", " + m["specular_kernel"].get<std::string>() + " specular kernel"
+                                           : "";
+            std::printf("baked %s -> %s in %.3f s (reading included; %zu specular levels%s, bad pixels: %llu)\n",
                         io::printable(source).c_str(), io::printable(outdir).c_str(), wall, m["specular"].size(),
-                        (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
+                        kernel.c_str(), (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
             if (m.contains("presets"))
                 for (const auto& [name, entry] : m["presets"].items()) {
                     std::string files;

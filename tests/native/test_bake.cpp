@@ -6,10 +6,12 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <string>
 
 #include "iblbake/bake/bake_file.h"
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/image/encode.h"
+#include "iblbake/ibl/specular.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/color.h"
 #include "reference.h"
@@ -422,4 +424,24 @@ TEST(Bake, ManifestExtraKeysAreAddedButNeverReplaceTheContract) {
     EXPECT_EQ(m["contract"], 1);
     wo.manifest_extra = {{"sh9", 0}};
     EXPECT_THROW(make_manifest(r, o, wo, SourceInfo{}, nlohmann::json::object()), std::invalid_argument);
+}
+
+// The manifest says which specular kernel ran; IBLBAKE_ISA=baseline forces
+// the baseline one in the CLI.
+TEST(Cli, SpecularKernelIsRecordedAndCanBeForced) {
+    const fs::path dir = temp_dir("kernel_isa");
+    const fs::path src = write_source(dir, ref::sun_source(128, 64, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f));
+    const std::string common = src.string() + " --face-size 16 --irradiance-size 8 --lut-size 16 -o ";
+    ASSERT_EQ(run_cli("bake " + common + (dir / "best").string()), 0);
+    ASSERT_EQ(std::system(("IBLBAKE_ISA=baseline " + std::string(IBLBAKE_CLI) + " bake " + common +
+                           (dir / "base").string() + " >/dev/null 2>&1")
+                              .c_str()),
+              0);
+    const nlohmann::json best = read_json(dir / "best" / "manifest.json");
+    const nlohmann::json base = read_json(dir / "base" / "manifest.json");
+    EXPECT_EQ(base["specular_kernel"], "baseline");
+    ASSERT_TRUE(set_specular_kernel_isa(""));
+    EXPECT_EQ(best["specular_kernel"], specular_kernel_isa());  // the best this CPU has
+    EXPECT_NE(base["specular"][1]["method"].get<std::string>().find("baseline kernel"), std::string::npos);
+    fs::remove_all(dir);
 }

@@ -4,10 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "iblbake/bake/bake.h"
+#include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/parallel.h"
+#include "iblbake/ibl/specular.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"
 #include "reference.h"
@@ -226,4 +230,68 @@ TEST(Specular, WorstTexelNearASunWithinOnePercentAtDefaults) {
         worst = std::max(worst, level_worst);
     }
     EXPECT_LT(worst, 1e-2);
+}
+
+// The specular kernel is built per instruction set and chosen at run time:
+// every kernel this CPU runs agrees with the baseline (plain SSE2) within
+// float rounding, far inside the integration error, on single levels and
+// on a group of lobes; and a forced kernel is the one that runs (its bits
+// differ from the baseline's, its name is recorded).
+TEST(Specular, EveryKernelIsaAgreesWithTheBaseline) {
+    const Image src = ref::sun_source(512, 256, {0.4, 0.6, 0.3}, 1.0, 5e4f, 0.3f);
+    BakeOptions o = specular_only(64, 7);
+    auto bake_with = [&](const std::string& isa) {
+        EXPECT_TRUE(set_specular_kernel_isa(isa));
+        BakeResult r = compute_bake(src, o);
+        EXPECT_EQ(r.specular_kernel, isa);
+        return r;
+    };
+    const BakeResult base = bake_with("baseline");
+    int others = 0;
+    for (const std::string isa : {"avx2", "avx512"}) {
+        if (!set_specular_kernel_isa(isa)) {
+            std::printf("[kernel isa] this CPU has no %s\n", isa.c_str());
+            continue;
+        }
+        ++others;
+        const BakeResult r = bake_with(isa);
+        ASSERT_EQ(r.specular.size(), base.specular.size());
+        bool differs = false;
+        for (size_t m = 1; m < r.specular.size(); ++m) {
+            double worst = 0.0;
+            const std::vector<float>&a = r.specular[m].pixels, &b = base.specular[m].pixels;
+            for (size_t k = 0; k < a.size(); ++k) {
+                worst = std::max(worst, std::fabs(double(a[k]) - b[k]) / std::max(1e-3, double(std::fabs(b[k]))));
+                differs = differs || a[k] != b[k];
+            }
+            std::printf("[kernel isa %s vs baseline] level %zu r = %.3f: max rel difference %.2e\n", isa.c_str(), m,
+                        r.roughness[m], worst);
+            EXPECT_LT(worst, 2e-5) << isa << " level " << m;
+        }
+        EXPECT_TRUE(differs) << isa << " gave the baseline's bits: was it the kernel that ran?";
+    }
+    // A group of three lobes (engine presets) against the same levels alone, per kernel.
+    BinTree tree = build_bin_tree(src, 512);
+    for (const std::string isa : {"baseline", "avx2", "avx512"}) {
+        if (!set_specular_kernel_isa(isa)) continue;
+        std::vector<Cubemap> grouped(3, Cubemap(16)), alone(3, Cubemap(16));
+        const double rough[3] = {0.3, 0.36, 0.45};
+        std::vector<SpecularGroupTarget> targets;
+        for (int k = 0; k < 3; ++k) targets.push_back({&grouped[k], rough[k]});
+        specular_hierarchical_group(targets, tree);
+        for (int k = 0; k < 3; ++k) {
+            specular_hierarchical(alone[k], tree, rough[k]);
+            double worst = 0.0;
+            for (size_t i = 0; i < alone[k].pixels.size(); ++i)
+                worst = std::max(worst, std::fabs(double(grouped[k].pixels[i]) - alone[k].pixels[i]) /
+                                            std::max(1e-3, double(alone[k].pixels[i])));
+            std::printf("[kernel isa %s] group of 3, r = %.2f against alone: max rel difference %.2e\n", isa.c_str(),
+                        rough[k], worst);
+            // Finer bins (the narrowest lobe's) than alone: within the integration error.
+            EXPECT_LT(worst, 3e-3) << isa << " r " << rough[k];
+        }
+    }
+    EXPECT_TRUE(set_specular_kernel_isa(""));  // back to the best
+    EXPECT_THROW(set_specular_kernel_isa("sse9"), std::invalid_argument);
+    if (others == 0) GTEST_SKIP() << "only the baseline kernel runs on this CPU";
 }
