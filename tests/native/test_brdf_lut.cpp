@@ -1,6 +1,7 @@
 // The split-sum BRDF LUT: limits, reference points, an independent estimator.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
