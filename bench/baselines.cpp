@@ -1,6 +1,8 @@
 #include "baselines.h"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/ibl/source.h"

@@ -133,7 +133,8 @@ def hdri_world(path: str, strength: float, rotation_z: float):
     if not os.path.isfile(path):
         raise RuntimeError("no image file at %s" % path)
     world = bpy.data.worlds.new(Path(path).stem)
-    world.use_nodes = True
+    if bpy.app.version < (5, 0, 0):  # 5.0+: always a node tree (use_nodes deprecated)
+        world.use_nodes = True
     nt = world.node_tree
     bg = nt.nodes["Background"]
     env = nt.nodes.new("ShaderNodeTexEnvironment")

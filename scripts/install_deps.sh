@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs iblbake's build and test dependencies from Debian's archive
-# (Debian 12 bookworm, Debian 13 trixie; Debian unstable works too).
+# (Debian 12 bookworm, Debian 13 trixie, Debian unstable; each proved in a
+# fresh minbase chroot by scripts/check_fresh.sh).
 # Does nothing when everything is already installed. Every package the build
 # and the tests use is named here: installs use --no-install-recommends, which
 # drops packages that CMake config files rely on silently.
@@ -10,14 +11,14 @@ set -euo pipefail
 . /etc/os-release 2>/dev/null || true
 RELEASE=""
 if [ "${ID:-}" = debian ]; then
-  case "${VERSION_ID:-}" in
-    12) RELEASE=bookworm ;;
-    13) RELEASE=trixie ;;
-    "") RELEASE=sid ;;  # unstable/testing has no VERSION_ID
+  case "${VERSION_CODENAME:-}:${VERSION_ID:-}" in
+    bookworm:*|*:12) RELEASE=bookworm ;;
+    trixie:*|*:13) RELEASE=trixie ;;
+    *:) RELEASE=sid ;;  # unstable (and testing) have no VERSION_ID
   esac
 fi
 if [ -z "$RELEASE" ]; then
-  echo "install_deps: unsupported system '${PRETTY_NAME:-unknown}': iblbake installs its dependencies on Debian 12 (bookworm) and Debian 13 (trixie) only" >&2
+  echo "install_deps: unsupported system (${PRETTY_NAME:-no /etc/os-release}): supported are Debian 12 bookworm, Debian 13 trixie and Debian unstable; elsewhere install the packages named in scripts/install_deps.sh by hand" >&2
   exit 1
 fi
 
@@ -27,8 +28,12 @@ LIBS=(libopenimageio-dev openimageio-tools libopenexr-dev libpng-dev libtbb-dev
       nlohmann-json3-dev libssl-dev libcli11-dev)
 HOSTILE=(libjpeg-dev)  # JPEG read with libjpeg directly (issue 15)
 PYTHON=(python3-dev python3-numpy pybind11-dev)
-TESTS=(libgtest-dev libgmock-dev libbenchmark-dev python3-pytest python3-matplotlib time)
+TESTS=(libgtest-dev libgmock-dev python3-pytest)
+BENCH=(python3-matplotlib time)  # bench/run.sh: plots, peak memory
 BLENDER=(blender blender-data)
+# Blender 5.2's own extension manager (bl_pkg) imports cattrs and requests,
+# which Debian's blender package does not depend on.
+[ "$RELEASE" != sid ] || BLENDER+=(python3-cattr python3-requests)
 GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
 EXPORT=(libzstd-dev python3-zstandard)
 # Engine tests: Debian's chromium (headless, SwiftShader); node and npm from
@@ -37,7 +42,8 @@ EXPORT=(libzstd-dev python3-zstandard)
 BROWSER=(chromium)
 command -v npm >/dev/null 2>&1 || BROWSER+=(nodejs npm)
 
-PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${HOSTILE[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BLENDER[@]}" "${GUI[@]}" "${EXPORT[@]}" "${BROWSER[@]}")
+PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${HOSTILE[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BENCH[@]}" "${BLENDER[@]}" "${GUI[@]}"
+          "${EXPORT[@]}" "${BROWSER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -13,6 +13,10 @@ bl_info = {
     "category": "Lighting",
 }
 
+import os
+import re
+import sys
+
 try:
     import bpy
 except ImportError:  # iblbake.core used outside Blender (tests, pipelines): nothing to register
@@ -22,18 +26,39 @@ if bpy is not None:
     if "operators" in locals():  # F8 / script reload: re-import the submodules
         import importlib
         for _m in (core.settings, core.needs, core.world, core.native, core.pipeline, core.job,  # noqa: F821
-                   core.describe, state, properties, preferences, world_reader, scene_needs,  # noqa: F821
+                   core.describe, compat, state, properties, preferences, world_reader, scene_needs,  # noqa: F821
                    operators, panel):  # noqa: F821
             importlib.reload(_m)
     from . import core  # noqa: F401
     from .core import describe  # noqa: F401
-    from . import state, operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
+    from . import compat, state, operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
 
     _CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
     _HANDLERS = operators.HANDLERS + panel.HANDLERS
 
 
+def python_mismatch(folder=os.path.dirname(os.path.abspath(__file__)), cache_tag=sys.implementation.cache_tag):
+    """Why this package's compiled module cannot load in this Python, or "".
+    A packaged zip carries iblbake_core built for one Python (its file name says
+    which, e.g. cpython-313); a source checkout carries none (the module is
+    found in build/native)."""
+    tags = sorted({m.group(1) for m in (re.match(r"iblbake_core\.(cpython-(\d)(\d+))", f) for f in os.listdir(folder))
+                   if m} if os.path.isdir(folder) else set())
+    found = [re.match(r"cpython-(\d)(\d+)", t) for t in tags]
+    if not found or cache_tag in tags:
+        return ""
+    built = ", ".join("%s.%s" % m.groups() for m in found)
+    running = re.match(r"cpython-(\d)(\d+)", cache_tag)
+    running = "%s.%s" % running.groups() if running else cache_tag
+    return ("this iblbake package was built for Python %s, but this Blender runs Python %s: install the "
+            "iblbake zip whose name says python%s (build it on the system whose Blender this is)"
+            % (built, running, running))
+
+
 def register():
+    why = python_mismatch()
+    if why:  # refuse before registering anything: Blender shows this and leaves the add-on off
+        raise RuntimeError("iblbake: " + why)
     for cls in _CLASSES:
         bpy.utils.register_class(cls)
     properties.register_props()

@@ -7,6 +7,7 @@ and particle instances and of Geometry Nodes' Set Material nodes; muted
 nodes pass their first shader through, as Blender does."""
 from typing import List, Tuple
 
+from .compat import uses_nodes
 from .core.needs import FULL, Lobe, node_lobes, principled_lobes
 
 SURFACE_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD", "VOLUME"})
@@ -108,7 +109,7 @@ def node_tree_lobes(tree, name) -> List[Lobe]:
 def material_lobes(mat) -> List[Lobe]:
     if mat is None:
         return list(DEFAULT_LOBES)
-    if not mat.use_nodes or mat.node_tree is None:
+    if not uses_nodes(mat):
         return principled_lobes(mat.name, (mat.roughness,) * 2, (mat.metallic,) * 2, (mat.specular_intensity,) * 2)
     return node_tree_lobes(mat.node_tree, mat.name)
 

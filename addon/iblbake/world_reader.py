@@ -15,6 +15,7 @@ import threading
 import bpy
 import numpy as np
 
+from .compat import uses_nodes
 from .core import native
 from .core.world import COLOR, IMAGE, RENDER, Mapping, WorldSource
 
@@ -74,7 +75,7 @@ def classify(world, check_image: bool = False) -> WorldSource:
     name = world.name if world else None
     if world is None:
         raise WorldError(NO_WORLD)
-    if not world.use_nodes or world.node_tree is None:
+    if not uses_nodes(world):
         return WorldSource(COLOR, world=name, color=tuple(world.color))
     out = _active_output(world.node_tree)
     if out is None:
@@ -250,7 +251,7 @@ def lighting_copy(world):
     copy.cycles_visibility.camera = True
     if world.cycles_visibility.camera is False:
         notes.append("camera visibility of the world turned on for the render")
-    if copy.use_nodes and copy.node_tree is not None:
+    if uses_nodes(copy):
         nt = copy.node_tree
         for node in list(nt.nodes):
             if node.bl_idname != "ShaderNodeLightPath":
@@ -446,13 +447,13 @@ def read_world(scene, render_width: int, render_samples: int):
     return src, None
 
 
-# Nishita's sun is 0.545 degrees across by default: at 1024 pixels across
+# Nishita's (5.x: Single Scattering's) sun is 0.545 degrees across by default: at 1024 pixels across
 # (0.35 degrees each) it covers about two pixels, which 16 samples resolve.
 SUN_DISC_MIN_WIDTH = 1024
 
 
 def _has_sun_disc(world):
-    if world is None or not world.use_nodes or world.node_tree is None:
+    if world is None or not uses_nodes(world):
         return False
     # Nishita's sky (Blender 5 splits it into single and multiple scattering) draws a sun disc.
     return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type not in ("PREETHAM", "HOSEK_WILKIE")

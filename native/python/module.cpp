@@ -2,6 +2,8 @@
 // with the GIL held, then the work with the GIL released.
 #include "bindings.h"
 
+#include <exception>
+
 #include "iblbake/bake/bake.h"
 
 PYBIND11_MODULE(iblbake_core, m) {

@@ -2,6 +2,7 @@
 Blender and read what it wrote (the `case` fixture is in conftest.py)."""
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -14,6 +15,20 @@ ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
 BUILD_NATIVE = os.environ.get("IBLBAKE_CORE_DIR", os.path.join(ROOT, "build", "native"))
 sys.path.insert(0, BUILD_NATIVE)
 BLENDER = os.environ.get("BLENDER", shutil.which("blender") or "blender")
+
+
+def blender_version():
+    """(major, minor, patch) of the Blender the tests run, from `blender --version`."""
+    global _VERSION
+    if _VERSION is None:
+        out = subprocess.run([BLENDER, "--version"], capture_output=True, text=True, timeout=120).stdout
+        m = re.search(r"Blender (\d+)\.(\d+)\.(\d+)", out)
+        assert m, "cannot read the version of %s: %r" % (BLENDER, out[:300])
+        _VERSION = tuple(int(g) for g in m.groups())
+    return _VERSION
+
+
+_VERSION = None
 
 
 def blender_env():
@@ -73,4 +88,4 @@ def manifest(folder):
         return json.load(f)
 
 
-__all__ = ["run_blender", "sample_cross", "read", "manifest", "np", "ROOT", "BUILD_NATIVE"]
+__all__ = ["blender_version", "run_blender", "sample_cross", "read", "manifest", "np", "ROOT", "BUILD_NATIVE"]

@@ -18,7 +18,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "addon"))
 import iblbake  # noqa: E402
-from iblbake import operators  # noqa: E402
+from iblbake import operators, world_reader  # noqa: E402
+from iblbake.compat import ALWAYS_NODES  # noqa: E402
 from iblbake.core import native, pipeline  # noqa: E402
 from iblbake.core.job import BakeJob  # noqa: E402
 
@@ -63,7 +64,8 @@ def save_png_srgb(path, rgb):
 
 def image_world(path, strength=1.0, rotation=(0, 0, 0), mapping_type="POINT"):
     world = bpy.data.worlds.new("image world")
-    world.use_nodes = True
+    if not ALWAYS_NODES:
+        world.use_nodes = True
     nt = world.node_tree
     bg = nt.nodes["Background"]
     env = nt.nodes.new("ShaderNodeTexEnvironment")
@@ -163,7 +165,8 @@ def case_sky(args):
     """A Sky Texture world: rendered to a lat-long by Cycles, then baked."""
     scene = empty_scene()
     world = bpy.data.worlds.new("sky")
-    world.use_nodes = True
+    if not ALWAYS_NODES:
+        world.use_nodes = True
     nt = world.node_tree
     sky = nt.nodes.new("ShaderNodeTexSky")
     sky.sky_type = "HOSEK_WILKIE"
@@ -175,6 +178,26 @@ def case_sky(args):
     probes = [(0, 0, 1), (0.7, 0.0, 0.714), (-0.5, 0.6, 0.624), (0.0, -0.8, 0.6), (-0.9, -0.1, 0.42)]
     res["probes"] = probes
     res["cycles"] = render_directions(probes)
+    return res
+
+
+def case_sun_disc(args):
+    """Which sky worlds get the wider render for their sun disc: the
+    sun-disc sky of this Blender (Nishita; 5.x: Single and Multiple
+    Scattering), with and without the disc, and a sky without one."""
+    kinds = [k for k in ("NISHITA", "SINGLE_SCATTERING", "MULTIPLE_SCATTERING", "HOSEK_WILKIE")
+             if k in {e.identifier for e in bpy.types.ShaderNodeTexSky.bl_rna.properties["sky_type"].enum_items}]
+    res = {}
+    for kind in kinds:
+        for disc in (True, False):
+            world = bpy.data.worlds.new("%s %s" % (kind, disc))
+            if not ALWAYS_NODES:
+                world.use_nodes = True
+            sky = world.node_tree.nodes.new("ShaderNodeTexSky")
+            sky.sky_type = kind
+            sky.sun_disc = disc
+            world.node_tree.links.new(sky.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
+            res["%s %s" % (kind, disc)] = world_reader._has_sun_disc(world)
     return res
 
 
@@ -216,7 +239,8 @@ def add_cube(material):
 
 def material(name, kind, **inputs):
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    if not ALWAYS_NODES:
+        mat.use_nodes = True
     nt = mat.node_tree
     for n in list(nt.nodes):
         if n.bl_idname != "ShaderNodeOutputMaterial":

@@ -6,7 +6,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from blender_helpers import BLENDER, ROOT, manifest, read, run_blender, sample_cross
+from blender_helpers import BLENDER, ROOT, blender_version, manifest, read, run_blender, sample_cross
 
 FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
 SCRIPT = os.path.join(ROOT, "blender_scripts", "bake_world.py")
@@ -60,6 +60,16 @@ def test_specular_mip0_matches_cycles_along_the_axes(case, rotation, strength, m
     for d, seen in zip(res["probes"], res["cycles"]):
         baked = sample_cross(mip0, d)
         np.testing.assert_allclose(baked, seen, atol=0.01 * strength, err_msg="direction %s" % (d,))
+
+
+def test_sun_disc_skies_get_the_wider_render_on_every_blender(case):
+    """A sky with a sun disc is rendered at least 1024 wide: Nishita's
+    sky, called Single Scattering from 5.0 on (and Multiple Scattering)."""
+    res, _ = case("sun_disc")
+    assert any(k.split()[0] != "HOSEK_WILKIE" for k in res), res  # this Blender has a sun-disc sky
+    for key, wider in res.items():
+        kind, disc = key.split()
+        assert wider == (disc == "True" and kind != "HOSEK_WILKIE"), key
 
 
 def test_sky_texture_world_is_rendered_by_cycles_then_baked(case):
@@ -184,34 +194,125 @@ def test_batch_over_blend_files_and_images(case, tmp_path):
     assert manifest(tmp_path / "one")["blender"]["blend_file"] == blend
 
 
-def test_packaged_zip_installs_and_bakes_with_its_own_module(tmp_path):
-    """The zip made by the build (`addon_zip`) installs through Preferences >
-    Add-ons > Install and bakes with the module inside it (no checkout on the path)."""
-    zips = sorted((p for p in os.listdir(os.path.join(ROOT, "build")) if p.startswith("iblbake-addon-")))
-    assert zips, "build the addon_zip target first"
-    script = tmp_path / "install.py"
-    script.write_text(
-        "import bpy, addon_utils, sys\n"
-        "bpy.ops.preferences.addon_install(filepath=%r)\n"
-        "mod = addon_utils.enable('iblbake', default_set=True)\n"
-        "from iblbake.core import native\n"
-        "print('MODULE=' + native.load().__file__)\n"
-        "prefs = bpy.context.preferences.addons['iblbake'].preferences\n"
-        "prefs.default_output_dir = %r\n"
-        "prefs.face_size = 8\n"
-        "bpy.context.scene.world.node_tree.nodes['Background'].inputs['Color'].default_value = (1, 0.5, 0.25, 1)\n"
-        "print(bpy.ops.iblbake.bake())\n" % (os.path.join(ROOT, "build", zips[-1]), str(tmp_path / "out" / "{world}")))
+ADDON_ZIP = os.environ.get("IBLBAKE_ADDON_ZIP", "")
+EXTENSION_ZIP = os.environ.get("IBLBAKE_EXTENSION_ZIP", "")
+needs_zips = pytest.mark.skipif(not (ADDON_ZIP and EXTENSION_ZIP), reason="run through CTest (the zips' paths)")
+EXTENSIONS = blender_version() >= (4, 2)
+
+# Sets the preferences, makes the world a plain colour and bakes it; prints
+# where the module came from.
+BAKE_PLAIN = (
+    "import bpy, sys\n"
+    "from {pkg}.core import native\n"
+    "print('MODULE=' + native.load().__file__)\n"
+    "prefs = bpy.context.preferences.addons[{pkg!r}].preferences\n"
+    "prefs.default_output_dir = {out!r}\n"
+    "prefs.face_size = 8\n"
+    "bpy.context.scene.world.node_tree.nodes['Background'].inputs['Color'].default_value = (1, 0.5, 0.25, 1)\n"
+    "print(bpy.ops.iblbake.bake())\n")
+
+
+def isolated_env(tmp_path):
+    """Blender's user folders (add-ons, extensions, preferences) in tmp_path."""
     env = {k: v for k, v in os.environ.items() if k not in ("IBLBAKE_CORE_DIR", "PYTHONPATH")}
-    env["BLENDER_USER_SCRIPTS"] = str(tmp_path / "scripts")
+    env["BLENDER_USER_RESOURCES"] = str(tmp_path / "user")  # 4.2+: config, scripts, extensions
+    env["BLENDER_USER_SCRIPTS"] = str(tmp_path / "user" / "scripts")
+    env["BLENDER_USER_CONFIG"] = str(tmp_path / "user" / "config")
     env["IBLBAKE_CACHE_DIR"] = str(tmp_path / "cache")
-    p = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(script)],
-                       capture_output=True, text=True, env=env, timeout=300)
+    return env
+
+
+def blender_script(tmp_path, text, env, factory=True, name="script.py"):
+    script = tmp_path / name
+    script.write_text(text)
+    args = [BLENDER, "-b", *(["--factory-startup"] if factory else []), "--python-exit-code", "1",
+            "--python", str(script)]
+    return subprocess.run(args, capture_output=True, text=True, env=env, timeout=300)
+
+
+def check_plain_bake(tmp_path, p, module_under):
     assert p.returncode == 0, p.stdout + p.stderr
     module = [line for line in p.stdout.splitlines() if line.startswith("MODULE=")][0][7:]
-    assert module.startswith(str(tmp_path / "scripts")), module
+    assert module.startswith(str(module_under)), module
     m = manifest(tmp_path / "out" / "World")
     assert m["blender"]["path"] == "plain_colour" and m["options"]["face_size"] == 8
     # "Bake For" defaults to every roughness: all 4 levels, though the default
     # cube (Principled, roughness 0.5) reads only levels 1-2; and the preview sheet.
     assert [e["level"] for e in m["specular"]] == [0, 1, 2, 3]
     assert m["preview"]["file"] == "preview.png" and (tmp_path / "out" / "World" / "preview.png").is_file()
+
+
+@needs_zips
+def test_packaged_zip_installs_and_bakes_with_its_own_module(tmp_path):
+    """The legacy add-on zip installs through Preferences > Add-ons > Install
+    (every Blender; 4.2+ calls it a legacy add-on) and bakes with the module
+    inside it (no checkout on the path)."""
+    env = isolated_env(tmp_path)
+    p = blender_script(tmp_path, "import bpy, addon_utils\n"
+                       "bpy.ops.preferences.addon_install(filepath=%r)\n"
+                       "assert addon_utils.enable('iblbake', default_set=True) is not None\n" % ADDON_ZIP
+                       + BAKE_PLAIN.format(pkg="iblbake", out=str(tmp_path / "out" / "{world}")), env)
+    check_plain_bake(tmp_path, p, tmp_path / "user" / "scripts")
+    assert os.listdir(tmp_path / "user" / "scripts" / "addons") == ["iblbake"]
+
+
+@needs_zips
+@pytest.mark.skipif(not EXTENSIONS, reason="extensions are Blender 4.2+")
+def test_extension_validates_installs_with_blenders_command_and_bakes(tmp_path):
+    """`blender --command extension validate` accepts the zip; `extension
+    install-file -r user_default -e` installs and enables it; a later
+    session (the saved preferences) bakes with the module inside it."""
+    env = isolated_env(tmp_path)
+    p = subprocess.run([BLENDER, "--command", "extension", "validate", EXTENSION_ZIP],
+                       capture_output=True, text=True, env=env, timeout=300)
+    assert p.returncode == 0, p.stdout + p.stderr
+    p = subprocess.run([BLENDER, "--command", "extension", "install-file", "-r", "user_default", "-e", EXTENSION_ZIP],
+                       capture_output=True, text=True, env=env, timeout=300)
+    assert p.returncode == 0, p.stdout + p.stderr
+    pkg = "bl_ext.user_default.iblbake"
+    p = blender_script(tmp_path, "import bpy\nassert %r in bpy.context.preferences.addons, "
+                       "list(bpy.context.preferences.addons.keys())\n" % pkg
+                       + BAKE_PLAIN.format(pkg=pkg, out=str(tmp_path / "out" / "{world}")), env, factory=False)
+    check_plain_bake(tmp_path, p, tmp_path / "user" / "extensions" / "user_default" / "iblbake")
+
+
+@needs_zips
+@pytest.mark.skipif(EXTENSIONS, reason="Blender 4.2+ installs the extension as an extension")
+def test_extension_zip_in_an_older_blender_is_one_working_add_on_folder(tmp_path):
+    """Installed by mistake through 3.4's Add-ons > Install, the extension zip
+    is still one folder with bl_info (never loose files), and it works."""
+    env = isolated_env(tmp_path)
+    p = blender_script(tmp_path, "import bpy, addon_utils\n"
+                       "bpy.ops.preferences.addon_install(filepath=%r)\n"
+                       "assert addon_utils.enable('iblbake', default_set=True) is not None\n" % EXTENSION_ZIP
+                       + BAKE_PLAIN.format(pkg="iblbake", out=str(tmp_path / "out" / "{world}")), env)
+    check_plain_bake(tmp_path, p, tmp_path / "user" / "scripts")
+    assert os.listdir(tmp_path / "user" / "scripts" / "addons") == ["iblbake"]
+
+
+@needs_zips
+def test_a_zip_built_for_another_python_is_refused_with_the_reason(tmp_path):
+    """A module built for another Python cannot load: enabling the add-on
+    fails at once with a message that says which Python each side has,
+    and nothing of it is registered."""
+    import zipfile
+    other = tmp_path / "other-python.zip"
+    with zipfile.ZipFile(ADDON_ZIP) as src, zipfile.ZipFile(other, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            name = item.filename
+            if name.startswith("iblbake/iblbake_core."):
+                name = "iblbake/iblbake_core.cpython-30-x86_64-linux-gnu.so"
+            dst.writestr(name, data)
+    env = isolated_env(tmp_path)
+    p = blender_script(tmp_path, "import bpy, addon_utils\n"
+                       "bpy.ops.preferences.addon_install(filepath=%r)\n"
+                       "errors = []\n"
+                       "mod = addon_utils.enable('iblbake', default_set=True, handle_error=errors.append)\n"
+                       "print('ENABLED=%%s' %% (mod is not None))\n"
+                       "print('ERROR=%%s' %% errors[0] if errors else 'ERROR=')\n"
+                       "print('REGISTERED=%%s' %% hasattr(bpy.types, 'IBLBAKE_OT_bake'))\n" % str(other), env)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "ENABLED=False" in p.stdout and "REGISTERED=False" in p.stdout, p.stdout
+    error = [line for line in p.stdout.splitlines() if line.startswith("ERROR=")][0]
+    assert "built for Python 3.0" in error and "this Blender runs Python 3." in error, error

@@ -1,6 +1,7 @@
 // The pipeline end to end: files, manifest, atomic output, bad input, CLI.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 #include "iblbake/ibl/brdf_lut.h"
 #include "iblbake/math/spline.h"

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <zstd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -112,8 +113,11 @@ TEST(PresetCurves, EachIsTheInverseOfItsEnginesLod) {
     for (int n0 : {64, 256, 1024})
         for (int m = 1; m < 20; ++m) {
             const double r = roughness_babylon(m, n0);
-            if (r < 1.0) EXPECT_NEAR(lod_babylon(r, n0), m, 1e-9) << n0 << " " << m;
-            else EXPECT_LE(lod_babylon(1.0, n0), m + 1e-9);  // clamped past the lod of r = 1
+            if (r < 1.0) {
+                EXPECT_NEAR(lod_babylon(r, n0), m, 1e-9) << n0 << " " << m;
+            } else {
+                EXPECT_LE(lod_babylon(1.0, n0), m + 1e-9);  // clamped past the lod of r = 1
+            }
         }
     EXPECT_EQ(roughness_babylon(0, 256), 0.0);
     // Negative control: a chain on the linear curve read with Filament's lod
@@ -226,7 +230,9 @@ TEST(Sh, MirrorFlipsAreTheMirroredRadiancesCoefficients) {
                 unflipped += L[i] * yd[i];
             }
             ASSERT_NEAR(flipped, mirrored, 1e-12);
-            if (trial == 0) EXPECT_GT(std::fabs(unflipped - mirrored), 1e-3);  // negative control
+            if (trial == 0) {  // negative control
+                EXPECT_GT(std::fabs(unflipped - mirrored), 1e-3);
+            }
         }
 }
 
@@ -256,7 +262,9 @@ TEST(Sh, FilamentScaleAndBabylonPolynomialEvaluateToIrradiance) {
             }
             ASSERT_NEAR(f, want, 1e-9);
             ASSERT_NEAR(pv[c], babylon, 1e-9);
-            if (trial == 0 && c == 0) EXPECT_GT(std::fabs(pv[c] - want), 1e-4);  // not the plain SH9 irradiance
+            if (trial == 0 && c == 0) {  // not the plain SH9 irradiance
+                EXPECT_GT(std::fabs(pv[c] - want), 1e-4);
+            }
         }
     }
 }
@@ -420,7 +428,9 @@ TEST(Ktx2, E5B9G9R9WithZstdAndRgba32f) {
     uint64_t end = 0;
     for (int m = 3; m >= 0; --m) {
         const uint64_t at = u64(b, 80 + 24 * m), len = u64(b, 88 + 24 * m), raw = u64(b, 96 + 24 * m);
-        if (m < 3) EXPECT_EQ(at, end);  // packed back to back, smallest first
+        if (m < 3) {  // packed back to back, smallest first
+            EXPECT_EQ(at, end);
+        }
         end = at + len;
         const int n = std::max(1, 8 >> m);
         ASSERT_EQ(raw, uint64_t(6 * n * n * 4));
@@ -663,7 +673,9 @@ TEST(Export, PresetLevelsAreIntegratedAtTheirOwnRoughness) {
             err_wrong /= count;
             EXPECT_LT(err, 0.01) << plan.preset.name << " level " << l.level << " r " << l.roughness;
             // Negative control: the nearest SPEC roughness would be clearly off.
-            if (std::fabs(spec_r - l.roughness) > 0.03) EXPECT_GT(err_wrong, 3 * err) << plan.preset.name << " " << l.level;
+            if (std::fabs(spec_r - l.roughness) > 0.03) {
+                EXPECT_GT(err_wrong, 3 * err) << plan.preset.name << " " << l.level;
+            }
         }
 }
 

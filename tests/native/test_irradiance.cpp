@@ -81,10 +81,11 @@ TEST(Irradiance, SmallBrightPatchFollowsCosineLaw) {
             for (int i = 0; i < 16; ++i) {
                 const Vec3d n = texel_direction(f, i, j, 16);
                 const double expect = power * std::max(0.0, n.y) / kPi;
-                if (n.y > 0.05)
+                if (n.y > 0.05) {
                     EXPECT_NEAR(irr.at(f, i, j)[0] / expect, 1.0, 2e-3) << f << " " << i << " " << j;
-                else if (n.y < -0.05)
+                } else if (n.y < -0.05) {
                     EXPECT_EQ(irr.at(f, i, j)[0], 0.0f);
+                }
             }
 }
 

@@ -2,6 +2,7 @@
 // its scale, its orientation, and the file the pipeline writes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>

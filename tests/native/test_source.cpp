@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <tuple>
+#include <utility>
 
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"

@@ -5,10 +5,12 @@
 // furnace (A + B <= 1); one and two threads must give the same bits.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "iblbake/bake/bake.h"

@@ -160,6 +160,19 @@ def as_nobody():
     os.setuid(65534)
 
 
+def cli_nobody_can_run(folder):
+    """The CLI as `nobody` reaches it: a copy in FOLDER when run as root (a
+    checkout under /root, as in a fresh machine's chroot, is closed to other
+    users; the CLI links only system libraries, so a copy runs as is)."""
+    if not IS_ROOT:
+        return CLI
+    import shutil
+    copy = os.path.join(str(folder), "iblbake-cli")
+    shutil.copy(CLI, copy)
+    os.chmod(copy, 0o755)
+    return copy
+
+
 def test_d9_read_only_bake_folder_is_refused_up_front(src_exr):
     import shutil
     import tempfile
@@ -170,12 +183,15 @@ def test_d9_read_only_bake_folder_is_refused_up_front(src_exr):
     os.chmod(src_exr, 0o644)
     out = tmp_path / "o"
     kw = dict(preexec_fn=as_nobody) if IS_ROOT else {}
-    r = run("bake", str(src_exr), "-o", str(out), *CLI_SMALL, "--no-cache", **kw)
+    cli = cli_nobody_can_run(tmp_path)
+    r = subprocess.run([cli, "bake", str(src_exr), "-o", str(out), *CLI_SMALL, "--no-cache"], capture_output=True,
+                       text=True, **kw)
     assert r.returncode == 0, r.stderr
     before = folder_bytes(out)
     os.chmod(out, 0o555)
     try:
-        r = run("bake", str(src_exr), "-o", str(out), *CLI_SMALL, "--no-cache", **kw)
+        r = subprocess.run([cli, "bake", str(src_exr), "-o", str(out), *CLI_SMALL, "--no-cache"], capture_output=True,
+                           text=True, **kw)
         assert r.returncode == 1 and one_line_error(r), r.stderr
         assert "read-only" in r.stderr
         assert folder_bytes(out) == before

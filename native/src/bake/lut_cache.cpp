@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cmath>
 #include <cstring>
+#include <system_error>
 
 #include "iblbake/io/hash.h"
 

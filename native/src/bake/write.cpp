@@ -7,6 +7,7 @@
 #include <functional>
 #include <atomic>
 #include <mutex>
+#include <memory>
 
 #include <tbb/task_group.h>
 

@@ -1,6 +1,7 @@
 // What the container encoders share: the chain check and the dispatch table.
 #include "iblbake/export/container.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 

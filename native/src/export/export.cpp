@@ -1,5 +1,6 @@
 #include "iblbake/export/export.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>

@@ -1,5 +1,6 @@
 #include "iblbake/export/plan.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 

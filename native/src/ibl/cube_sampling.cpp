@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/ibl/source.h"

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <utility>
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"

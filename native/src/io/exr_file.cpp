@@ -9,7 +9,12 @@
 #include <OpenEXR/ImfRgbaFile.h>
 #include <OpenEXR/ImfTestFile.h>
 #include <OpenEXR/ImfThreading.h>
+#include <OpenEXR/OpenEXRConfig.h>
 #include <Imath/half.h>
+#if OPENEXR_VERSION_MAJOR > 3 || (OPENEXR_VERSION_MAJOR == 3 && OPENEXR_VERSION_MINOR >= 3)
+#include <OpenEXR/ImfContextInit.h>
+#define IBLBAKE_EXR_CONTEXT_INIT 1
+#endif
 
 #include <algorithm>
 #include <cstdint>
@@ -54,6 +59,29 @@ void limit_exr_sizes() {
     });
 }
 
+// OpenEXR 3.3 and later read through OpenEXRCore, whose default error
+// handler prints every error to stderr as well as failing the call: the
+// failure reaches the caller as an exception, the print would be a second,
+// raw line next to iblbake's one clear error. Older versions never print.
+#ifdef IBLBAKE_EXR_CONTEXT_INIT
+void quiet_exr_error(exr_const_context_t, exr_result_t, const char*) {}
+#endif
+
+std::unique_ptr<Imf::InputFile> open_exr(const std::string& path) {
+#ifdef IBLBAKE_EXR_CONTEXT_INIT
+    Imf::ContextInitializer init;
+    init.setErrorHandler(&quiet_exr_error);
+    return std::make_unique<Imf::InputFile>(path.c_str(), init, exr_threads());
+#else
+    return std::make_unique<Imf::InputFile>(path.c_str(), exr_threads());
+#endif
+}
+
+// A fuzzed header's name shown in a message: printable, at most 40 bytes of it.
+std::string shown_name(const std::string& name) {
+    return name.size() <= 40 ? name : name.substr(0, 40) + "...";
+}
+
 int checked_int(int64_t v, const char* what) {
     if (v < -(int64_t(1) << 30) || v > (int64_t(1) << 30)) throw std::runtime_error(std::string(what) + " out of range");
     return int(v);
@@ -93,7 +121,7 @@ void check_exr_headers(const std::string& path, uintmax_t file_size) {
             pos += 4;
             const int32_t size = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
             if (size < 0 || pos + uint64_t(size) > file_size)
-                throw std::runtime_error("header is damaged: attribute '" + name + "' declares " + std::to_string(size) +
+                throw std::runtime_error("header is damaged: attribute '" + shown_name(name) + "' declares " + std::to_string(size) +
                                          " bytes, the file holds " + std::to_string(file_size));
             if (std::fseek(f.get(), long(size), SEEK_CUR) != 0) throw std::runtime_error("header is truncated");
             pos += uint64_t(size);
@@ -107,7 +135,8 @@ RawPixels read_exr(const std::string& path, uintmax_t file_size) {
     out.format = "openexr";
     limit_exr_sizes();
     check_exr_headers(path, file_size);
-    Imf::InputFile in(path.c_str(), exr_threads());
+    const std::unique_ptr<Imf::InputFile> file = open_exr(path);
+    Imf::InputFile& in = *file;
     const Imf::Header& h = in.header();
     const Imath::Box2i dw = h.dataWindow(), disp = h.displayWindow();
     const int64_t width = int64_t(dw.max.x) - dw.min.x + 1, height = int64_t(dw.max.y) - dw.min.y + 1;
