@@ -1,7 +1,11 @@
 // iblbake_bench: the benchmark's native half (bench/run.py drives it).
-//   reference SRC OUT.csv IRR_FACE SPEC_FACE PER_LEVEL
-//       exhaustive reference (tests/native/reference.h) at a fixed random set
-//       of texels per output level; one CSV row per texel
+//   reference SRC OUT.csv IRR_FACE SPEC_FACE PER_LEVEL SMALL_FACE
+//       exhaustive reference of SPEC's integral over the bilinear source
+//       (tests/native/reference.h) at every irradiance texel and, per
+//       specular level, every texel of levels of face <= SMALL_FACE, else
+//       PER_LEVEL drawn at random plus every texel near a bright feature;
+//       one CSV row per texel (`random` marks the uniform sample), and the
+//       mean of L
 //   seed-lut SIZE SAMPLES REPS OUT.f32
 //   seed-irradiance SRC FACE DELTA REPS OUT.f32
 //   seed-specular SRC FACE SAMPLES REPS OUT.f32
@@ -62,20 +66,23 @@ Image load_source(const std::string& path) {
     return img;
 }
 
-int reference(const std::string& src_path, const std::string& out, int irr_face, int spec_face, int per_level) {
+int reference(const std::string& src_path, const std::string& out, int irr_face, int spec_face, int per_level,
+              int small_face) {
     const Image src = load_source(src_path);
     const ref::TexelTable table = ref::texel_table(src);
-    struct Row { const char* kind; int level, face; ref::CubeTexel t; double rough; ref::Rgb v; };
+    const std::vector<ref::BrightFeature> bright = ref::bright_features(src);
+    struct Row { const char* kind; int level, face; ref::CubeTexel t; double rough; bool random; ref::Rgb v; };
     std::vector<Row> rows;
-    for (const ref::CubeTexel& t : ref::sample_texels(irr_face, per_level, 1))
-        rows.push_back({"irradiance", 0, irr_face, t, 0.0, {}});
+    // Irradiance: every texel (its goal holds everywhere, the nadir included).
+    for (const ref::MeasureTexel& t : ref::measure_texels(irr_face, 1.0, {}, per_level, irr_face, 1))
+        rows.push_back({"irradiance", 0, irr_face, t.t, 0.0, t.random, {}});
     int mips = 1;
     while ((spec_face >> mips) > 0) ++mips;
     for (int m = 0; m < mips; ++m) {
         const int n = std::max(1, spec_face >> m);
         const double rough = mips == 1 ? 0.0 : double(m) / (mips - 1);
-        for (const ref::CubeTexel& t : ref::sample_texels(n, per_level, unsigned(m + 2)))
-            rows.push_back({"specular", m, n, t, rough, {}});
+        for (const ref::MeasureTexel& t : ref::measure_texels(n, rough, bright, per_level, small_face, unsigned(m + 2)))
+            rows.push_back({"specular", m, n, t.t, rough, t.random, {}});
     }
     parallel_for(0, int(rows.size()), [&](int k) {
         Row& r = rows[k];
@@ -84,10 +91,12 @@ int reference(const std::string& src_path, const std::string& out, int irr_face,
     });
     FILE* f = std::fopen(out.c_str(), "w");
     if (!f) throw std::runtime_error("cannot write " + out);
-    std::fprintf(f, "kind,level,face,f,i,j,roughness,r,g,b\n");
+    std::fprintf(f, "kind,level,face,f,i,j,roughness,random,r,g,b\n");
+    const auto mean = ref::mean_radiance(table);  // of SPEC's bilinear L: every level's mean
+    std::fprintf(f, "mean,-1,0,0,0,0,0,0,%.17g,%.17g,%.17g\n", mean[0], mean[1], mean[2]);
     for (const Row& r : rows)
-        std::fprintf(f, "%s,%d,%d,%d,%d,%d,%.17g,%.17g,%.17g,%.17g\n", r.kind, r.level, r.face, r.t.f, r.t.i, r.t.j,
-                     r.rough, r.v[0], r.v[1], r.v[2]);
+        std::fprintf(f, "%s,%d,%d,%d,%d,%d,%.17g,%d,%.17g,%.17g,%.17g\n", r.kind, r.level, r.face, r.t.f, r.t.i, r.t.j,
+                     r.rough, int(r.random), r.v[0], r.v[1], r.v[2]);
     std::fclose(f);
     return 0;
 }
@@ -142,7 +151,7 @@ int dense_lut(int size, int stride, int n_theta, int n_phi, const std::string& o
 
 int usage() {
     std::fprintf(stderr,
-                 "usage: iblbake_bench reference SRC OUT.csv IRR_FACE SPEC_FACE PER_LEVEL\n"
+                 "usage: iblbake_bench reference SRC OUT.csv IRR_FACE SPEC_FACE PER_LEVEL SMALL_FACE\n"
                  "       iblbake_bench seed-lut SIZE SAMPLES REPS OUT.f32\n"
                  "       iblbake_bench seed-irradiance SRC FACE DELTA REPS OUT.f32\n"
                  "       iblbake_bench seed-specular SRC FACE SAMPLES REPS OUT.f32\n"
@@ -158,7 +167,7 @@ int main(int argc, char** argv) {
     const std::vector<std::string> a(argv + 1, argv + argc);
     auto i = [&](size_t k) { return std::atoi(a.at(k).c_str()); };
     try {
-        if (a.size() == 6 && a[0] == "reference") return reference(a[1], a[2], i(3), i(4), i(5));
+        if (a.size() == 7 && a[0] == "reference") return reference(a[1], a[2], i(3), i(4), i(5), i(6));
         if (a.size() == 6 && a[0] == "seed-at") return seed_at(a[1], a[2], a[3], std::atof(a[4].c_str()), a[5]);
         if (a.size() == 6 && a[0] == "dense-lut") return dense_lut(i(1), i(2), i(3), i(4), a[5]);
         if (a.size() == 4 && a[0] == "sun") {

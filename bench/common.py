@@ -51,18 +51,34 @@ def median_time(fn, reps):
     return statistics.median(times), result
 
 
-def rel_errors(values, reference):
-    """Relative error of the channel sum per texel (as tests/native/measure_accuracy.cpp)."""
+def texel_solid_angles(idx, face):
+    """Exact solid angles of cube texels (f, j, i) of an N x N face (math/cube.h)."""
+    idx = np.asarray(idx)
+    i, j = idx[:, 2].astype(np.float64), idx[:, 1].astype(np.float64)
+    a0, a1 = 2 * i / face - 1, 2 * (i + 1) / face - 1
+    b0, b1 = 2 * j / face - 1, 2 * (j + 1) / face - 1
+    f = lambda a, b: np.arctan2(a * b, np.sqrt(a * a + b * b + 1))  # noqa: E731
+    return np.abs(f(a1, b1) - f(a0, b1) - f(a1, b0) + f(a0, b0))
+
+
+def level_metrics(values, reference, idx, random, face, mean):
+    """Issue 14's metric on channel sums: e = |out - ref| / max(ref, 0.05 mean) per
+    texel, its max and 99th percentile over every measured texel; over the uniform
+    sample (`random`), the solid-angle RMS of out - ref relative to the reference's,
+    the energy bias (sum Omega out / sum Omega ref - 1), and the old relative RMSE
+    and p99 (|out - ref| / ref)."""
     vs = np.asarray(values, np.float64).sum(axis=-1)
     rs = np.asarray(reference, np.float64).sum(axis=-1)
-    return np.abs(vs - rs) / np.maximum(rs, 1e-30)
-
-
-def error_stats(e):
-    """max, mean, RMS and 99th percentile (the value at index floor(0.99 n)) of relative errors."""
-    e = np.sort(np.asarray(e, np.float64))
-    return {"max": float(e[-1]), "mean": float(e.mean()), "rmse": float(np.sqrt(np.mean(e * e))),
-            "p99": float(e[min(len(e) - 1, int(0.99 * len(e)))])}
+    e = np.abs(vs - rs) / np.maximum(rs, 0.05 * mean)
+    rnd = np.asarray(random, bool)
+    om = texel_solid_angles(np.asarray(idx)[rnd], face)
+    d, r = vs[rnd] - rs[rnd], rs[rnd]
+    rel = np.sort(np.abs(d) / np.maximum(r, 1e-30))
+    es = np.sort(e)
+    return {"max_e": float(es[-1]), "p99_e": float(es[min(len(es) - 1, int(0.99 * len(es)))]),
+            "sa_rms": float(np.sqrt(np.sum(om * d * d) / max(np.sum(om * r * r), 1e-300))),
+            "bias": float(np.sum(om * vs[rnd]) / max(np.sum(om * r), 1e-300) - 1),
+            "rmse": float(np.sqrt(np.mean(rel * rel))), "p99": float(rel[min(len(rel) - 1, int(0.99 * len(rel)))])}
 
 
 def write_csv(path, rows):

@@ -96,6 +96,7 @@ def main():
     meta = {"command": "bash bench/run.sh" + (" --quick" if args.quick else ""),
             "date": datetime.date.today().isoformat(), "machine": machine(), "commit": commit,
             "run_minutes": (time.time() - t_start) / 60, "per_level": args.per_level,
+            "small_face": reference.SMALL_FACE,
             "lut_high_order": sweeps.LUT_HIGH_ORDER, "lut_dense": sweeps.LUT_DENSE,
             "lut_high_vs_dense": sweeps.lut_errors(high, high, dense)["max_abs_err_dense"],
             "seed_timing_source": f"{seed_src}.exr", **timing_meta}

@@ -6,12 +6,14 @@ seed baselines run in iblbake_bench (bench/baselines.cpp). Both use every core."
 import numpy as np
 
 import reference
-from common import CACHE, iblbake_core, log, median_time, rel_errors, error_stats, run_tool
+from common import CACHE, iblbake_core, level_metrics, log, median_time, run_tool
 
 LUT_SIZE = 512
 LUT_HIGH_ORDER = (16, 48)
 LUT_DENSE = (32, 4000, 2000)  # stride, n_theta, n_phi of the independent estimator
 LUT_DEFAULT = (4, 6, 64)  # phi points, u points, integrated nodes per row (0: every texel)
+EPS_DEFAULT = 0.4  # the hierarchical specular's default (ibl/specular.h)
+EPS_SWEEP = [0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.5, 2.0]
 
 
 def _f32(path, shape):
@@ -119,28 +121,31 @@ def _sh9_irradiance(sh9, idx, face):
     return np.array(out)
 
 
-def _irr_row(source, method, setting, secs, values, ref_vals, default=False):
-    s = error_stats(rel_errors(values, ref_vals))
-    return {"source": source, "method": method, "setting": setting, "seconds": secs, "max_rel": s["max"],
-            "mean_rel": s["mean"], "rmse": s["rmse"], "p99": s["p99"], "default": int(default)}
+def _irr_row(source, method, setting, secs, values, ref, default=False):
+    idx, ref_vals, rnd = ref.irradiance
+    m = level_metrics(values, ref_vals, idx, rnd, reference.IRR_FACE, ref.mean)
+    return {"source": source, "method": method, "setting": setting, "seconds": secs, "max_e": m["max_e"],
+            "p99_e": m["p99_e"], "max_rel": float(np.max(np.abs(np.asarray(values).sum(-1) - ref_vals.sum(-1)) /
+                                                       np.maximum(ref_vals.sum(-1), 1e-30))),
+            "rmse": m["rmse"], "bias": m["bias"], "default": int(default)}
 
 
 def irradiance_sweep(name, path, img, ref, seed_times, quick):
-    idx, ref_vals = ref.irradiance
+    idx, ref_vals, _ = ref.irradiance
     face = reference.IRR_FACE
     rows = []
     for bins in ([32, 128, 512] if quick else [8, 16, 32, 64, 128, 256, 512]):
         secs, r = median_time(lambda: iblbake_core.bake(img, specular=False, lut=False, irradiance_size=face,
                                                         irradiance_bins=bins), 3)
-        rows.append(_irr_row(name, "iblbake", f"{bins} bins", secs, reference.at(r["irradiance"], idx), ref_vals,
+        rows.append(_irr_row(name, "iblbake", f"{bins} bins", secs, reference.at(r["irradiance"], idx), ref,
                              bins == 128))
     secs, r = median_time(lambda: iblbake_core.bake(img, irradiance=False, specular=False, lut=False), 3)
-    rows.append(_irr_row(name, "sh9", "9 coefficients", secs, _sh9_irradiance(r["sh9"], idx, face), ref_vals))
+    rows.append(_irr_row(name, "sh9", "9 coefficients", secs, _sh9_irradiance(r["sh9"], idx, face), ref))
     for delta, secs in seed_times["irradiance"].items():
         vals = _seed_at(ref, path, "irradiance", delta).reshape(-1, 3)
-        rows.append(_irr_row(name, "seed", f"step {delta}", secs, vals, ref_vals, delta == SEED_IRR_STEP))
+        rows.append(_irr_row(name, "seed", f"step {delta}", secs, vals, ref, delta == SEED_IRR_STEP))
     for r in rows:
-        log(f"irradiance {name} {r['method']} {r['setting']}: {r['seconds']:.3f} s, max {r['max_rel']:.2e}")
+        log(f"irradiance {name} {r['method']} {r['setting']}: {r['seconds']:.3f} s, max e {r['max_e']:.2e}")
     return rows
 
 
@@ -148,12 +153,16 @@ def irradiance_sweep(name, path, img, ref, seed_times, quick):
 def _spec_rows(source, method, setting, secs, levels, ref, default=False, at_texels=False):
     """One summary row and one row per level; levels are cubes, or values at the texels with at_texels."""
     per_level = []
-    for m, ((idx, vals), lvl) in enumerate(zip(ref.specular, levels)):
-        s = error_stats(rel_errors(lvl if at_texels else reference.at(lvl, idx), vals))
+    for m, ((idx, vals, rnd), lvl) in enumerate(zip(ref.specular, levels)):
+        s = level_metrics(lvl if at_texels else reference.at(lvl, idx), vals, idx, rnd, ref.faces[m], ref.mean)
         per_level.append({"source": source, "method": method, "setting": setting, "level": m,
-                          "roughness": ref.roughness[m], "rmse": s["rmse"], "p99": s["p99"], "max": s["max"]})
+                          "roughness": ref.roughness[m], **s})
     worst = max(per_level, key=lambda r: r["rmse"])
+    worst_e = max(per_level, key=lambda r: r["max_e"])
     summary = {"source": source, "method": method, "setting": setting, "seconds": secs,
+               "worst_max_e": worst_e["max_e"], "worst_max_e_roughness": worst_e["roughness"],
+               "worst_sa_rms": max(r["sa_rms"] for r in per_level),
+               "worst_bias": max((r["bias"] for r in per_level), key=abs),
                "worst_rmse": worst["rmse"], "worst_rmse_roughness": worst["roughness"],
                "worst_p99": max(r["p99"] for r in per_level), "default": int(default)}
     return summary, per_level
@@ -167,11 +176,12 @@ def specular_sweep(name, path, img, ref, seed_times, quick):
         s, lv = _spec_rows(name, method, setting, secs, cubes, ref, default, at_texels)
         summaries.append(s)
         levels.extend(lv)
-        log(f"specular {name} {method} {setting}: {secs:.3f} s, worst RMSE {s['worst_rmse']:.2e}")
+        log(f"specular {name} {method} {setting}: {secs:.3f} s, worst texel e {s['worst_max_e']:.2e}, "
+            f"worst RMSE {s['worst_rmse']:.2e}")
 
-    for eps in ([0.15, 0.25, 0.5] if quick else [0.1, 0.15, 0.2, 0.25, 0.35, 0.5, 0.7, 1.0, 1.5, 2.0]):
+    for eps in ([0.25, 0.4, 0.7] if quick else EPS_SWEEP):
         secs, r = median_time(lambda: iblbake_core.bake(img, irradiance=False, lut=False, face_size=face, eps=eps), 3)
-        add("iblbake", f"eps {eps}", secs, r["specular"], eps == 0.25)
+        add("iblbake", f"eps {eps}", secs, r["specular"], eps == EPS_DEFAULT)
     fis = [(12, 1.0)] if quick else [(6, 1.0), (12, 1.0), (24, 1.0), (12, 2.0)]
     for rings, bias in fis:
         secs, r = median_time(lambda: iblbake_core.bake(img, irradiance=False, lut=False, face_size=face,
@@ -179,7 +189,7 @@ def specular_sweep(name, path, img, ref, seed_times, quick):
         add("fis", f"rings {rings}, lod bias {bias:g}", secs, r["specular"])
     for n, secs in seed_times["specular"].items():
         flat, levels_at, off = _seed_at(ref, path, "specular", n), [], 0
-        for idx, _ in ref.specular:  # values come in the reference's row order
+        for idx, _, _ in ref.specular:  # values come in the reference's row order
             levels_at.append(flat[off:off + len(idx) * 3].reshape(-1, 3))
             off += len(idx) * 3
         add("seed", f"{n} samples", secs, levels_at, n == SEED_SPEC_SAMPLES, at_texels=True)

@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
                      "hierarchical (deterministic kernel sum over exact bins) or fis (filtered importance sampling)")
         ->capture_default_str();
     bake->add_option("--eps", bo.hierarchical.eps,
-                     "hierarchical: bin size against the kernel's length scale; error grows as eps^2")
+                     "hierarchical: bin size against the kernel's length scale; error grows as eps^3")
         ->capture_default_str();
     bake->add_option("--samples", samples,
                      "fis: samples per texel, approximately (sets --rings to sqrt(S)/2 and the azimuthal cap to "
@@ -204,9 +204,12 @@ int main(int argc, char** argv) {
         for (const auto& w : m["warnings"]) std::cerr << "iblbake: warning: " << w.get<std::string>() << "\n";
         if (!quiet) {
             const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-            std::printf("baked %s -> %s in %.3f s (reading included; %zu specular levels, bad pixels: %llu)\n",
+            const std::string kernel = m["specular_kernel"].is_string()
+                                           ? ", " + m["specular_kernel"].get<std::string>() + " specular kernel"
+                                           : "";
+            std::printf("baked %s -> %s in %.3f s (reading included; %zu specular levels%s, bad pixels: %llu)\n",
                         io::printable(source).c_str(), io::printable(outdir).c_str(), wall, m["specular"].size(),
-                        (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
+                        kernel.c_str(), (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
             if (m.contains("presets"))
                 for (const auto& [name, entry] : m["presets"].items()) {
                     std::string files;

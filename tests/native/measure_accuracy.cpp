@@ -1,62 +1,116 @@
-// iblbake_accuracy SOURCE [--face N] [--samples-per-level K] [--max-hot N] ...:
-// bakes SOURCE with the default options (or those given) and measures every
-// output against the exhaustive reference integrator (tests/native/reference.h)
-// on up to K texels per level (all texels of small levels), printing one row
-// per output. Not a test: a measuring tool for closing notes and benchmarks.
+// iblbake_accuracy SOURCE [options]: bakes SOURCE with the default options
+// (or those given) and measures every output against the exhaustive
+// reference of SPEC's integral over the bilinear source
+// (tests/native/reference.h), printing one row per output: issue 14's
+// per-texel metric e = |out - ref| / max(ref, 0.05 x mean) (max and p99 over
+// every texel of small levels and every texel near a bright feature of large
+// ones), the solid-angle RMS of the error relative to the reference's, the
+// energy bias, and the old relative RMSE. Not a test: a measuring tool for
+// closing notes and benchmarks.
+//
+//   --face N --mips M --irradiance-size N --eps X --tile T   bake options
+//   --per-level K     random texels per large level (default 300)
+//   --small-face S    levels of face <= S are measured at every texel (default 32)
+//   --ref-cache FILE  keep the reference values there (computed once per
+//                     source, texel set and face size; reused when they match)
+//   --worst K         list the K worst texels of each output
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "iblbake/bake/bake.h"
-#include "iblbake/io/image_io.h"
+#include "iblbake/ibl/parallel.h"
 #include "iblbake/ibl/source.h"
+#include "iblbake/io/image_io.h"
 #include "iblbake/math/cube.h"
 #include "reference.h"
 
 using namespace iblbake;
 
 namespace {
-struct Stats { double rmse, p99, max, mean; };
-Stats stats(std::vector<double> e) {
-    Stats s{0, 0, 0, 0};
-    for (double x : e) { s.rmse += x * x; s.max = std::max(s.max, x); s.mean += x; }
-    s.rmse = std::sqrt(s.rmse / e.size());
-    s.mean /= e.size();
-    std::sort(e.begin(), e.end());
-    s.p99 = e[std::min(e.size() - 1, size_t(0.99 * e.size()))];
-    return s;
+
+struct Output {
+    std::string name;
+    int n;
+    double roughness;  // < 0: irradiance
+    std::vector<ref::MeasureTexel> texels;
+    std::vector<double> ref;
+};
+
+double channel_sum(const float* v) { return double(v[0]) + v[1] + v[2]; }
+
+// Reference cache: a header naming the source size and every texel, then the values.
+bool load_cache(const std::string& path, int w, int h, std::vector<Output>& outs) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return false;
+    int hdr[3];
+    if (!f.read(reinterpret_cast<char*>(hdr), sizeof(hdr)) || hdr[0] != w || hdr[1] != h || hdr[2] != int(outs.size()))
+        return false;
+    for (Output& o : outs) {
+        int m[2];
+        if (!f.read(reinterpret_cast<char*>(m), sizeof(m)) || m[0] != o.n || m[1] != int(o.texels.size())) return false;
+        std::vector<int> ij(3 * o.texels.size());
+        if (!f.read(reinterpret_cast<char*>(ij.data()), std::streamsize(ij.size() * sizeof(int)))) return false;
+        for (size_t k = 0; k < o.texels.size(); ++k)
+            if (ij[3 * k] != o.texels[k].t.f || ij[3 * k + 1] != o.texels[k].t.i || ij[3 * k + 2] != o.texels[k].t.j)
+                return false;
+        double rough;
+        if (!f.read(reinterpret_cast<char*>(&rough), sizeof(rough)) || rough != o.roughness) return false;
+        o.ref.resize(o.texels.size());
+        if (!f.read(reinterpret_cast<char*>(o.ref.data()), std::streamsize(o.ref.size() * sizeof(double)))) return false;
+    }
+    return true;
 }
-double rel(const float* v, const ref::Rgb& r) {
-    const double rs = r[0] + r[1] + r[2], vs = double(v[0]) + v[1] + v[2];
-    return std::fabs(vs - rs) / std::max(rs, 1e-30);
+
+void store_cache(const std::string& path, int w, int h, const std::vector<Output>& outs) {
+    std::ofstream f(path + ".tmp", std::ios::binary);
+    const int hdr[3] = {w, h, int(outs.size())};
+    f.write(reinterpret_cast<const char*>(hdr), sizeof(hdr));
+    for (const Output& o : outs) {
+        const int m[2] = {o.n, int(o.texels.size())};
+        f.write(reinterpret_cast<const char*>(m), sizeof(m));
+        std::vector<int> ij;
+        for (const auto& t : o.texels) ij.insert(ij.end(), {t.t.f, t.t.i, t.t.j});
+        f.write(reinterpret_cast<const char*>(ij.data()), std::streamsize(ij.size() * sizeof(int)));
+        f.write(reinterpret_cast<const char*>(&o.roughness), sizeof(o.roughness));
+        f.write(reinterpret_cast<const char*>(o.ref.data()), std::streamsize(o.ref.size() * sizeof(double)));
+    }
+    f.close();
+    std::rename((path + ".tmp").c_str(), path.c_str());
 }
+
 }  // namespace
 
 int main(int argc, char** argv) {
     if (argc < 2) {
-        std::fprintf(stderr, "usage: iblbake_accuracy SOURCE [--face N] [--per-level K] [--max-hot N] [--hot-threshold X] [--rings N] [--lod-bias X]\n");
+        std::fprintf(stderr,
+                     "usage: iblbake_accuracy SOURCE [--face N] [--mips M] [--irradiance-size N] [--eps X] [--tile T]\n"
+                     "       [--per-level K] [--small-face S] [--ref-cache FILE] [--worst K]\n");
         return 2;
     }
     BakeOptions o;
-    int per_level = 400;
+    int per_level = 300, small_face = 32, worst = 0;
+    std::string cache;
     for (int a = 2; a + 1 < argc; a += 2) {
         const std::string k = argv[a];
         const double v = std::atof(argv[a + 1]);
         if (k == "--face") o.face_size = int(v);
+        else if (k == "--mips") o.mip_count = int(v);
+        else if (k == "--irradiance-size") o.irradiance_size = int(v);
         else if (k == "--per-level") per_level = int(v);
-        else if (k == "--max-hot") o.max_hot = int(v);
-        else if (k == "--hot-threshold") o.hot_threshold = v;
-        else if (k == "--rings") o.specular_quality.rings = int(v);
-        else if (k == "--lod-bias") o.specular_quality.lod_bias = float(v);
-        else if (k == "--base") o.specular_base_face = int(v);
+        else if (k == "--small-face") small_face = int(v);
         else if (k == "--eps") o.hierarchical.eps = v;
         else if (k == "--tile") o.hierarchical.tile = int(v);
-        else if (k == "--max-phi") o.specular_quality.max_phi = int(v);
+        else if (k == "--finest-eps") o.hierarchical.finest_eps = v;
+        else if (k == "--horizon") o.hierarchical.horizon = v;
+        else if (k == "--ref-cache") cache = argv[a + 1];
+        else if (k == "--worst") worst = int(v);
         else { std::fprintf(stderr, "unknown option %s\n", k.c_str()); return 2; }
     }
     o.lut = false;  // the LUT has its own reference tests
@@ -65,30 +119,77 @@ int main(int argc, char** argv) {
     sanitize(src);
     const auto t0 = std::chrono::steady_clock::now();
     const BakeResult r = compute_bake(li.image, o);
-    const ref::TexelTable table = ref::texel_table(src);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::printf("source %s (%dx%d), bake without LUT %.3f s, hot texels %zu (%.1f%% of power)\n", argv[1], src.width,
-                src.height, secs, r.hot_texels, 100 * r.hot_power_fraction);
-    std::printf("%-12s %5s %6s %5s %10s %10s %10s %10s\n", "output", "face", "rough", "n", "relRMSE", "p99", "max",
-                "mean");
-    {
-        std::vector<double> e;
-        for (const ref::CubeTexel& t : ref::sample_texels(r.irradiance->size, per_level, 1))
-            e.push_back(rel(r.irradiance->at(t.f, t.i, t.j),
-                            ref::irradiance(table, texel_direction(t.f, t.i, t.j, r.irradiance->size))));
-        const Stats s = stats(e);
-        std::printf("%-12s %5d %6s %5zu %10.2e %10.2e %10.2e %10.2e\n", "irradiance", r.irradiance->size, "-", e.size(),
-                    s.rmse, s.p99, s.max, s.mean);
+
+    const ref::TexelTable table = ref::texel_table(src);
+    const auto mean3 = ref::mean_radiance(table);
+    const double mean = mean3[0] + mean3[1] + mean3[2];
+    const std::vector<ref::BrightFeature> bright = ref::bright_features(src);
+
+    std::vector<Output> outs;
+    std::vector<const Cubemap*> cubes;
+    if (r.irradiance) {
+        outs.push_back({"irradiance", r.irradiance->size, -1.0,
+                        ref::measure_texels(r.irradiance->size, 1.0, {}, per_level, small_face, 1), {}});
+        cubes.push_back(&*r.irradiance);
     }
     for (size_t m = 0; m < r.specular.size(); ++m) {
-        const Cubemap& lvl = r.specular[m];
-        std::vector<double> e;
-        for (const ref::CubeTexel& t : ref::sample_texels(lvl.size, per_level, unsigned(m + 2)))
-            e.push_back(rel(lvl.at(t.f, t.i, t.j),
-                            ref::prefiltered(table, texel_direction(t.f, t.i, t.j, lvl.size), r.roughness[m])));
-        const Stats s = stats(e);
-        std::printf("%-12s %5d %6.3f %5zu %10.2e %10.2e %10.2e %10.2e  %s\n", ("specular_" + std::to_string(m)).c_str(),
-                    lvl.size, r.roughness[m], e.size(), s.rmse, s.p99, s.max, s.mean, r.specular_methods[m].c_str());
+        const int n = r.specular[m].size;
+        outs.push_back({"specular_" + std::to_string(r.specular_levels[m]), n, r.roughness[m],
+                        ref::measure_texels(n, r.roughness[m], bright, per_level, small_face, unsigned(m + 2)), {}});
+        cubes.push_back(&r.specular[m]);
+    }
+    const bool cached = !cache.empty() && load_cache(cache, src.width, src.height, outs);
+    const auto t1 = std::chrono::steady_clock::now();
+    if (!cached) {
+        struct Job { size_t o, k; };
+        std::vector<Job> jobs;
+        for (size_t q = 0; q < outs.size(); ++q) {
+            outs[q].ref.assign(outs[q].texels.size(), 0.0);
+            for (size_t k = 0; k < outs[q].texels.size(); ++k) jobs.push_back({q, k});
+        }
+        parallel_for(0, int(jobs.size()), [&](int j) {
+            Output& q = outs[jobs[j].o];
+            const ref::CubeTexel& t = q.texels[jobs[j].k].t;
+            const Vec3d n = texel_direction(t.f, t.i, t.j, q.n);
+            const ref::Rgb v = q.roughness < 0 ? ref::irradiance(table, n) : ref::prefiltered(table, n, q.roughness);
+            q.ref[jobs[j].k] = v[0] + v[1] + v[2];
+        });
+        if (!cache.empty()) store_cache(cache, src.width, src.height, outs);
+    }
+    const double ref_secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+
+    std::printf("source %s (%dx%d), mean %.4g, %zu bright features; bake without LUT %.3f s; reference %s %.1f s\n",
+                argv[1], src.width, src.height, mean, bright.size(), secs, cached ? "read from cache" : "computed",
+                ref_secs);
+    std::printf("%-12s %5s %6s %6s %9s %9s %9s %10s %9s %9s %6s  %s\n", "output", "face", "rough", "n", "max e", "p99 e",
+                "saRMS", "bias", "relRMSE", "relp99", "bins", "worst texel (f i j: ref, out, deg from brightest)");
+    for (size_t q = 0; q < outs.size(); ++q) {
+        const Output& oq = outs[q];
+        std::vector<double> vals;
+        for (const auto& t : oq.texels) vals.push_back(channel_sum(cubes[q]->at(t.t.f, t.t.i, t.t.j)));
+        const ref::LevelAccuracy a = ref::level_accuracy(oq.texels, vals, oq.ref, oq.n, mean);
+        const Vec3d wd = texel_direction(a.worst.f, a.worst.i, a.worst.j, oq.n);
+        const double ang = bright.empty() ? -1 : std::acos(std::clamp(dot(wd, bright[0].dir), -1.0, 1.0)) * 180 / kPi;
+        char rough[16];
+        std::snprintf(rough, sizeof(rough), oq.roughness < 0 ? "-" : "%.3f", oq.roughness);
+        const size_t bins = oq.roughness < 0 ? 0 : r.samples_per_texel[q - (r.irradiance ? 1 : 0)];
+        std::printf("%-12s %5d %6s %6zu %9.2e %9.2e %9.2e %+10.2e %9.2e %9.2e %6zu  %d %d %d: %.4g, %.4g, %.1f\n",
+                    oq.name.c_str(), oq.n, rough, oq.texels.size(), a.max_e, a.p99_e, a.sa_rms, a.bias, a.rel_rmse,
+                    a.rel_p99, bins, a.worst.f, a.worst.i, a.worst.j, a.worst_ref, a.worst_out, ang);
+        if (worst > 0) {
+            std::vector<size_t> idx(oq.texels.size());
+            for (size_t k = 0; k < idx.size(); ++k) idx[k] = k;
+            auto err = [&](size_t k) { return ref::texel_error(vals[k], oq.ref[k], mean); };
+            std::sort(idx.begin(), idx.end(), [&](size_t x, size_t y) { return err(x) > err(y); });
+            for (int k = 0; k < std::min<int>(worst, int(idx.size())); ++k) {
+                const auto& t = oq.texels[idx[k]].t;
+                const Vec3d d = texel_direction(t.f, t.i, t.j, oq.n);
+                const double an = bright.empty() ? -1 : std::acos(std::clamp(dot(d, bright[0].dir), -1.0, 1.0)) * 180 / kPi;
+                std::printf("    e %.3e  %d %d %d  ref %.5g out %.5g  (%+.3f %%)  %.1f deg\n", err(idx[k]), t.f, t.i, t.j,
+                            oq.ref[idx[k]], vals[idx[k]], 100 * (vals[idx[k]] / oq.ref[idx[k]] - 1), an);
+            }
+        }
     }
     return 0;
 }

@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <string>
 
 #include "iblbake/bake/bake_file.h"
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/image/encode.h"
+#include "iblbake/ibl/specular.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/color.h"
 #include "reference.h"
@@ -218,32 +220,6 @@ TEST(LutCache, SecondBakeReadsTheFirstOnesLut) {
     }
 }
 
-TEST(LutCache, SpecularNormaliserIsReusedWithTheSameBits) {
-    // The hierarchical sums' denominators depend on geometry alone: a second
-    // bake, of another source, reads them and gives the bits a bake without
-    // any cache gives; another eps is another entry.
-    const fs::path dir = temp_dir("normcache");
-    FileLutCache cache(dir / "cache");
-    BakeOptions o = small_options();
-    o.irradiance = false;
-    o.lut = false;
-    const Image a = ref::random_smooth_source(96, 48, 2), b = ref::random_smooth_source(64, 32, 9);
-    const BakeResult first = compute_bake(a, o, {}, &cache);
-    for (int c : first.specular_normaliser_from_cache) EXPECT_EQ(c, 0);
-    const BakeResult warm = compute_bake(b, o, {}, &cache), plain = compute_bake(b, o);
-    ASSERT_EQ(warm.specular.size(), plain.specular.size());
-    for (size_t m = 0; m < warm.specular.size(); ++m) {
-        EXPECT_EQ(warm.specular[m].pixels, plain.specular[m].pixels) << m;
-        EXPECT_EQ(warm.specular_normaliser_from_cache[m], warm.roughness[m] > 0.0 ? 1 : 0) << m;
-    }
-    o.hierarchical.eps = 0.3;
-    for (int c : compute_bake(b, o, {}, &cache).specular_normaliser_from_cache) EXPECT_EQ(c, 0);
-    // Level 1 (face 8, r = 1/4, finest bins 256) is there; asked for another length, it is a miss.
-    const std::string key = specular_normaliser_key(8, 0.25, 0.25, 8, 256);
-    EXPECT_TRUE(cache.load_floats(key, 6 * 8 * 8));
-    EXPECT_FALSE(cache.load_floats(key, 6 * 16 * 16));
-}
-
 TEST(Io, CrossStreamedInBandsReadsBackExactly) {
     // A face of 50: the 150-row cross goes out in bands of 64, 64 and 22 rows.
     const int n = 50;
@@ -449,4 +425,24 @@ TEST(Bake, ManifestExtraKeysAreAddedButNeverReplaceTheContract) {
     EXPECT_EQ(m["contract"], 1);
     wo.manifest_extra = {{"sh9", 0}};
     EXPECT_THROW(make_manifest(r, o, wo, SourceInfo{}, nlohmann::json::object()), std::invalid_argument);
+}
+
+// The manifest says which specular kernel ran; IBLBAKE_ISA=baseline forces
+// the baseline one in the CLI.
+TEST(Cli, SpecularKernelIsRecordedAndCanBeForced) {
+    const fs::path dir = temp_dir("kernel_isa");
+    const fs::path src = write_source(dir, ref::sun_source(128, 64, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f));
+    const std::string common = src.string() + " --face-size 16 --irradiance-size 8 --lut-size 16 -o ";
+    ASSERT_EQ(run_cli("bake " + common + (dir / "best").string()), 0);
+    ASSERT_EQ(std::system(("IBLBAKE_ISA=baseline " + std::string(IBLBAKE_CLI) + " bake " + common +
+                           (dir / "base").string() + " >/dev/null 2>&1")
+                              .c_str()),
+              0);
+    const nlohmann::json best = read_json(dir / "best" / "manifest.json");
+    const nlohmann::json base = read_json(dir / "base" / "manifest.json");
+    EXPECT_EQ(base["specular_kernel"], "baseline");
+    ASSERT_TRUE(set_specular_kernel_isa(""));
+    EXPECT_EQ(best["specular_kernel"], specular_kernel_isa());  // the best this CPU has
+    EXPECT_NE(base["specular"][1]["method"].get<std::string>().find("baseline kernel"), std::string::npos);
+    fs::remove_all(dir);
 }

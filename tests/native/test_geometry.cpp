@@ -206,3 +206,21 @@ TEST(FastMath, AcosWithinItsBound) {
     EXPECT_NEAR(fast_acos(1.5f), 0.0f, 1e-7f);  // clamped
     EXPECT_NEAR(fast_acos(-1.5f), 3.14159265f, 1e-6f);
 }
+
+TEST(FastMath, Atan2VecMatchesLibm) {
+    // Every quadrant, both octants, the reduction's seam (0.66) and the axes.
+    double worst = 0.0;
+    for (int k = 0; k < 200000; ++k) {
+        const double t = -kPi + 2 * kPi * (k + 0.37) / 200000, r = 0.5 + (k % 7);
+        const double y = r * std::sin(t), x = r * std::cos(t);
+        worst = std::max(worst, std::fabs(atan2_vec(y, x) - std::atan2(y, x)));
+    }
+    for (double a : {0.0, 0.66, 0.6600000001, 1.0, 1e-300}) {
+        worst = std::max(worst, std::fabs(atan2_vec(a, 1.0) - std::atan2(a, 1.0)));
+        worst = std::max(worst, std::fabs(atan2_vec(-1.0, -a) - std::atan2(-1.0, -a)));
+    }
+    EXPECT_LT(worst, 1e-15);
+    EXPECT_EQ(atan2_vec(0.0, 0.0), 0.0);
+    EXPECT_DOUBLE_EQ(atan2_vec(1.0, 0.0), kPi / 2);
+    EXPECT_DOUBLE_EQ(atan2_vec(0.0, -1.0), kPi);
+}

@@ -171,8 +171,11 @@ TEST(Stress, FaceSizesOneTo2048) {
         const BakeResult r = compute_bake(src, cheap(n, n));
         EXPECT_EQ(non_finite(r), 0u) << n;
         for (float v : r.irradiance->pixels) ASSERT_NEAR(v, 3.0f, 3e-3f) << "irradiance " << n;
+        // The specular sum's rule from each bin's moments is not exact for a
+        // constant (it is not a ratio of two sums over the same bins): within
+        // 1e-3 at the defaults (measured 1.0e-3 at face 129).
         for (const Cubemap& c : r.specular)
-            for (float v : c.pixels) ASSERT_NEAR(v, 3.0f, 3e-3f) << "specular " << n;
+            for (float v : c.pixels) ASSERT_NEAR(v, 3.0f, 6e-3f) << "specular " << n;
     }
     // 2048, cheaply: the mirror level and a 2048 irradiance (resampled from 128).
     BakeOptions o = cheap(2048, 2048);
@@ -209,7 +212,9 @@ TEST(Stress, RoughnessZeroAndOneOnASun) {
         }
         const double rmse = std::sqrt(sq / 96);
         std::printf("[r = 1 on a sun, %s] relative RMSE %.2e, max %.2e\n", specular_method_name(m), rmse, worst);
-        // Measured: hierarchical RMSE 1.24e-2, max 7.0e-2 (the two horizon texels); fis 3.2e-3, 7.6e-3.
+        // Measured against SPEC's bilinear L: hierarchical RMSE 7.6e-3, max 5.6e-2 (the two horizon texels,
+        // where the sun's own 1.4 degree hat straddles the kink; the earlier point rule gave 1.3e-2, 7.7e-2);
+        // fis 3.2e-3, 7.6e-3.
         EXPECT_LT(rmse, 2e-2) << specular_method_name(m);
         EXPECT_LT(worst, 0.1) << specular_method_name(m);
     }

@@ -106,14 +106,23 @@ double smallest_positive_roughness(const std::vector<LevelJob>& jobs) {
     return r;
 }
 
-// Finest specular bins: small enough for the narrowest lobe (radius <= eps *
-// 2 alpha_1, about 2.2 / (eps alpha_1) bins across), a power of two, at most
-// 4096 across (the reduction holds 128 bytes a bin while it sums: 1 GB there);
-// chains whose first roughness is below about 0.05 use coarser bins than eps asks.
+// Finest specular bins: small enough for every level's lobe (radius <=
+// min(level eps, finest_eps) * 2 alpha, about 2.2 / (eps alpha) bins across)
+// and horizon rule (radius <= hierarchical_horizon_radius), SPEC's levels and
+// the presets' alike, a power of two, at most 4096 across.
 int finest_bin_width(const BakeOptions& o) {
-    const double r1 = smallest_positive_roughness(level_jobs(o)), a1 = r1 * r1;
-    if (o.specular_method != SpecularMethod::Hierarchical || r1 <= 0.0) return 2;
-    return std::clamp(pow2_ceil(2.2 / (o.hierarchical.eps * a1)), 2, 4096);
+    if (o.specular_method != SpecularMethod::Hierarchical) return 2;
+    double radius = kPi;
+    bool any = false;
+    for (const LevelJob& j : level_jobs(o)) {
+        const double r = j.roughness;
+        if (!(r > 0.0)) continue;
+        const double e = std::min(hierarchical_level_eps(o.hierarchical, j.face_size), o.hierarchical.finest_eps);
+        radius = std::min({radius, e * 2.0 * r * r, hierarchical_horizon_radius(r, j.face_size, o.hierarchical)});
+        any = true;
+    }
+    if (!any) return 2;
+    return std::clamp(pow2_ceil(4.4 / radius), 2, 4096);  // an equator bin of w across: radius 4.44 / w
 }
 
 // 0 when the largest value is below 2^64, else the exponent e such that
@@ -147,6 +156,19 @@ auto in_arena(int threads, Fn&& fn) {
     tbb::task_arena arena(threads);
     return arena.execute(fn);
 }
+
+// Waits for a sink's work on the way out of a bake that throws (a bake that
+// returns has waited already, and rethrown any failure).
+struct SinkGuard {
+    OutputSink* sink;
+    ~SinkGuard() {
+        if (!sink) return;
+        try {
+            sink->wait();
+        } catch (...) {  // the bake's own exception is the one that propagates
+        }
+    }
+};
 
 // The LUT, read from the cache when there (it depends on its settings alone).
 void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
@@ -263,7 +285,7 @@ void BakeOptions::validate() const {
     check(irradiance_bins >= 2 && irradiance_bins <= 4096 && (irradiance_bins & (irradiance_bins - 1)) == 0,
           "irradiance_bins must be a power of two in 2..4096");
     check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.02 && hierarchical.eps <= 2.0,
-          "specular eps must be in 0.02..2 (error grows as eps^2; 0.25 gives about 0.3 %)");
+          "specular eps must be in 0.02..2 (the default 0.4 keeps every texel within about 0.3 %; error grows as eps^3 to eps^4)");
     check(hierarchical.tile >= 1 && hierarchical.tile <= 256, "specular tile must be in 1..256");
     check(irradiance_exact_face >= 1 && irradiance_exact_face <= 4096, "irradiance_exact_face must be in 1..4096");
     check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
@@ -298,12 +320,13 @@ namespace {
 // cleaned in place; otherwise a source that needs cleaning is copied first
 // and a clean one is read where it lies.
 BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const ProgressFn& progress,
-                       LutCache* lut_cache) {
+                       LutCache* lut_cache, OutputSink* sink) {
     o.validate();
     if (view.width < 1 || view.height < 1) throw std::invalid_argument("source image is empty");
     const bool owned_source = owned != nullptr;
     return in_arena(o.threads, [&] {
         BakeResult r;
+        const SinkGuard guard{sink};  // destroyed before r: what the sink reads outlives it
         StageClock clock(r);
         auto report = [&](const std::string& stage, double f) {
             if (progress && !progress(stage, f)) throw Cancelled();
@@ -350,17 +373,14 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         const ImageView source = view;
         clock.done("sanitize");
 
-        // The integrators work on texel-constant radiance; SPEC integrates the
-        // bilinear L. The two agree to second order in the texel size, so a
-        // source coarser than the integration needs (under 512 across, or
-        // than the finest specular bins) is resampled from L onto a finer
-        // grid first. Mip 0 always reads the original through L itself.
+        // The bins integrate SPEC's bilinear L exactly, whatever the source's
+        // size. Filtered importance sampling (`fis`) and the hot split read
+        // texel-constant radiance instead: for them a source coarser than 512
+        // across is first resampled from L onto a finer grid.
         const int finest_bins = finest_bin_width(o);
-        const int integration_w = std::max(512, finest_bins);
         Image resampled;
-        if (source.width < integration_w || source.height < integration_w / 2)
-            resampled = resample_latlong(source, std::max(source.width, integration_w),
-                                         std::max(source.height, integration_w / 2));
+        if (o.specular_method == SpecularMethod::Fis && (source.width < 512 || source.height < 256))
+            resampled = resample_latlong(source, std::max(source.width, 512), std::max(source.height, 256));
         const ImageView integrand = resampled.width > 0 ? ImageView(resampled) : source;
         r.integration_width = integrand.width;
         r.integration_height = integrand.height;
@@ -372,7 +392,57 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         const std::vector<LevelJob> jobs = level_jobs(o);
         const double r1 = smallest_positive_roughness(jobs);  // 0: no level needs the integrators
         const bool want_irr = o.irradiance || o.extra.irradiance;
-        const bool need_split = want_irr || (r1 > 0.0 && o.specular_method == SpecularMethod::Fis);
+        const bool fis = o.specular_method == SpecularMethod::Fis;
+
+        // Outputs are final once made: scaled back (the overflow guard; a
+        // result past the float range, a world of 3.4e38 convolved, saturates
+        // at the largest float, counted) and SPEC's handed to the sink, which
+        // may start writing them at once.
+        size_t saturated = 0;
+        auto rescale = [&](std::vector<float>& px) {
+            if (scale_exp == 0) return;
+            for (float& v : px) {
+                v = std::ldexp(v, scale_exp);
+                if (std::isinf(v)) {
+                    v = std::copysign(std::numeric_limits<float>::max(), v);
+                    ++saturated;
+                }
+            }
+        };
+        size_t spec_jobs = 0;
+        for (const LevelJob& j : jobs) spec_jobs += j.spec_level >= 0;
+        r.specular.reserve(spec_jobs);  // the sink holds references into it
+        auto finish = [&](const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method) {
+            rescale(level.pixels);
+            if (job.spec_level >= 0) {
+                r.specular.push_back(std::move(level));
+                r.specular_levels.push_back(job.spec_level);
+                r.roughness.push_back(job.roughness);
+                r.samples_per_texel.push_back(samples);
+                r.specular_methods.push_back(method);
+                if (sink) sink->cube("specular_" + std::to_string(job.spec_level), r.specular.back());
+            } else {
+                r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method});
+            }
+            advance(w_spec / double(jobs.size()));
+            report("specular", done);
+        };
+
+        // The r = 0 levels (mip 0 by default) first: they read the source
+        // itself, and the largest file's writing then overlaps everything
+        // that follows.
+        bool mirrored = false;
+        for (const LevelJob& job : jobs) {
+            if (job.roughness != 0.0) continue;
+            report("specular", done);
+            Cubemap level(job.face_size);
+            specular_mirror(level, source);
+            finish(job, std::move(level), 1, "bilinear source lookup");
+            mirrored = true;
+        }
+        if (mirrored) clock.done("specular_mip0");
+
+        const bool need_split = want_irr || (r1 > 0.0 && fis);
         HotSplit split;
         if (need_split) {
             split = split_hot(integrand, o.hot_threshold, o.max_hot);
@@ -387,7 +457,6 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
 
         // The hierarchical specular's bin tree, built first: its coarser exact
         // bins are the irradiance's too, which then needs no pass of its own.
-        const bool fis = o.specular_method == SpecularMethod::Fis;
         const bool need_tree = !fis && r1 > 0.0;
         const bool irr_from_tree = want_irr && need_tree && o.irradiance_bins <= finest_bins / 4;
         BinTree tree;
@@ -404,20 +473,25 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             const int bw = o.irradiance_bins, bh = o.irradiance_bins / 2;
             if (irr_from_tree) remove_hot(irr_bins, bw, bh, integrand.width, integrand.height, split);
             else irr_bins = reduce_rest_to_bins(integrand, split, bw, bh);
-            VectorCloud cloud = vector_cloud(irr_bins);
-            for (const RadiancePoint& p : split.hot) cloud.add(p.mean_dir, p.power);
+            const BinGroups groups = group_bins(irr_bins, bw, bh);
             Cubemap irr(o.irradiance_size);
-            irradiance_convolve(irr, cloud, o.irradiance_exact_face);
-            (o.irradiance ? r.irradiance : r.extra_irradiance) = std::move(irr);
+            irradiance_convolve(irr, groups, split.hot, o.irradiance_exact_face);
+            rescale(irr.pixels);
+            if (o.irradiance) {
+                r.irradiance = std::move(irr);
+                if (sink) sink->cube("irradiance", *r.irradiance);
+            } else {
+                r.extra_irradiance = std::move(irr);
+            }
             clock.done("irradiance");
             advance(w_irr);
         }
         if (!o.irradiance) skip("irradiance");
 
-        if (!jobs.empty()) {
+        if (r1 > 0.0) {
             report("specular", done);
             CubePyramid pyramid;
-            if (fis && r1 > 0.0) {
+            if (fis) {
                 // The rest cube must resolve the narrowest lobe (about alpha_1
                 // radians wide) but need not be finer than the source.
                 double rf = mips > 1 ? o.mip_roughness(1) : 1.0;
@@ -433,30 +507,18 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 latlong_to_cube(cube, rest_image(integrand, split), ss);  // on the integration grid
                 pyramid = build_pyramid(cube);
                 clock.done("specular_pyramid");
+            } else {
+                r.specular_kernel = specular_kernel_isa();
             }
-            const std::string method_h =
-                "hierarchical kernel sum over exact bins (eps " + std::to_string(o.hierarchical.eps).substr(0, 4) + ")";
-            auto finish = [&](const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method,
-                              bool norm_cached) {
-                if (job.spec_level >= 0) {
-                    r.specular.push_back(std::move(level));
-                    r.specular_normaliser_from_cache.push_back(norm_cached);
-                    r.specular_levels.push_back(job.spec_level);
-                    r.roughness.push_back(job.roughness);
-                    r.samples_per_texel.push_back(samples);
-                    r.specular_methods.push_back(method);
-                } else {
-                    r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method,
-                                                norm_cached});
-                }
-                advance(w_spec / double(jobs.size()));
-                report("specular", done);
-            };
+            const std::string method_h = "hierarchical second-order kernel sum over exact bins (eps " +
+                                         std::to_string(o.hierarchical.eps).substr(0, 4) + ", " +
+                                         r.specular_kernel + " kernel)";
             for (const std::vector<size_t>& group : level_groups(jobs, !fis)) {
                 const LevelJob& job = jobs[group[0]];
                 const int n = job.face_size;
                 const double rough = job.roughness;
-                if (rough > 0.0 && !fis && owned) {
+                if (rough == 0.0) continue;  // made above
+                if (!fis && owned) {
                     // Past the r = 0 levels only the tree is read: a source this
                     // bake owns (the CLI's, or a cleaned copy) is freed (or kept
                     // for an export that asked for it) before the rest of the
@@ -465,70 +527,31 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     std::vector<float>().swap(owned->pixels);
                     owned = nullptr;
                 }
-                const size_t texels = size_t(6) * n * n;
                 if (group.size() > 1) {
-                    // Levels at nearby roughness in one pass; their normalisers
-                    // are cached under a key naming the group.
-                    std::string members = "-group";
-                    for (size_t g : group) {
-                        char buf[32];
-                        std::snprintf(buf, sizeof buf, "-%.17g", jobs[g].roughness);
-                        members += buf;
-                    }
+                    // Levels at nearby roughness in one pass (shared bins and loads).
                     std::vector<Cubemap> levels(group.size(), Cubemap(n));
-                    std::vector<std::vector<float>> norms(group.size());
-                    std::vector<std::string> keys;
                     std::vector<SpecularGroupTarget> targets;
-                    for (size_t k = 0; k < group.size(); ++k) {
-                        keys.push_back(specular_normaliser_key(n, jobs[group[k]].roughness, o.hierarchical.eps,
-                                                               o.hierarchical.tile, finest_bins) +
-                                       members);
-                        if (lut_cache) {
-                            if (auto cached = lut_cache->load_floats(keys[k], texels)) norms[k] = std::move(*cached);
-                        }
-                    }
-                    std::vector<char> cached(group.size());
-                    for (size_t k = 0; k < group.size(); ++k) {
-                        cached[k] = norms[k].size() == texels;
-                        targets.push_back({&levels[k], jobs[group[k]].roughness, &norms[k]});
-                    }
+                    for (size_t k = 0; k < group.size(); ++k) targets.push_back({&levels[k], jobs[group[k]].roughness});
                     const double bins = specular_hierarchical_group(targets, tree, o.hierarchical);
                     std::string with;
                     for (size_t g : group) with += (with.empty() ? "" : ", ") + std::to_string(jobs[g].roughness);
-                    for (size_t k = 0; k < group.size(); ++k) {
-                        if (lut_cache && !cached[k]) lut_cache->store_floats(keys[k], norms[k]);
+                    for (size_t k = 0; k < group.size(); ++k)
                         finish(jobs[group[k]], std::move(levels[k]), size_t(std::lround(bins)),
-                               method_h + ", one pass for roughness " + with, cached[k] != 0);
-                    }
+                               method_h + ", one pass for roughness " + with);
                     continue;
                 }
                 Cubemap level(n);
-                bool norm_cached = false;
                 size_t samples = 0;
                 std::string method;
-                if (rough == 0.0) {
-                    specular_mirror(level, source);
-                    samples = 1;
-                    method = "bilinear source lookup";
-                } else if (!fis) {
-                    // The level's normaliser from the cache when there, else made and kept.
-                    std::vector<float> norm;
-                    const std::string key = specular_normaliser_key(n, rough, o.hierarchical.eps,
-                                                                    o.hierarchical.tile, finest_bins);
-                    if (lut_cache) {
-                        if (auto cached = lut_cache->load_floats(key, texels)) norm = std::move(*cached);
-                    }
-                    norm_cached = norm.size() == texels;
-                    const double bins = specular_hierarchical(level, tree, rough, o.hierarchical, &norm);
-                    if (lut_cache && !norm_cached) lut_cache->store_floats(key, norm);
-                    samples = size_t(std::lround(bins));
+                if (!fis) {
+                    samples = size_t(std::lround(specular_hierarchical(level, tree, rough, o.hierarchical)));
                     method = method_h;
                 } else {
                     samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality) +
                               split.hot.size();
                     method = "filtered importance sampling + hot texels";
                 }
-                finish(job, std::move(level), samples, method, norm_cached);
+                finish(job, std::move(level), samples, method);
             }
             clock.done("specular");
         }
@@ -538,6 +561,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         if (o.lut) {
             report("brdf_lut", done);
             lut_stage(r, o, lut_cache);
+            if (sink) sink->lut(*r.lut);
             clock.done("brdf_lut");
             advance(w_lut);
         } else {
@@ -552,32 +576,17 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 std::copy_n(source.at(0, y), size_t(source.width) * 3, r.source->at(0, y));
         }
         if (scale_exp != 0) {
-            // Back to the source's scale; a result past the float range (a
-            // world of 3.4e38 convolved) saturates at the largest float, counted.
-            size_t saturated = 0;
-            auto rescale = [&](std::vector<float>& px) {
-                for (float& v : px) {
-                    v = std::ldexp(v, scale_exp);
-                    if (std::isinf(v)) {
-                        v = std::copysign(std::numeric_limits<float>::max(), v);
-                        ++saturated;
-                    }
-                }
-            };
-            if (r.irradiance) rescale(r.irradiance->pixels);
-            if (r.extra_irradiance) rescale(r.extra_irradiance->pixels);
             if (r.source) rescale(r.source->pixels);
-            for (Cubemap& c : r.specular) rescale(c.pixels);
-            for (ExtraSpecularLevel& e : r.extra_specular) rescale(e.cube.pixels);
             for (auto& ch : r.sh9)
                 for (double& v : ch) v = std::ldexp(v, scale_exp);
             for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
             r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
-            if (saturated)
-                r.warnings.push_back(std::to_string(saturated) +
-                                     " output values exceeded the float range and were saturated at 3.4e38");
         }
+        if (saturated)
+            r.warnings.push_back(std::to_string(saturated) +
+                                 " output values exceeded the float range and were saturated at 3.4e38");
         check_outputs(r, !owned_source);
+        if (sink) sink->wait();
         report("done", 1.0);
         return r;
     });
@@ -585,13 +594,14 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
 
 }  // namespace
 
-BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress, LutCache* lut_cache) {
-    return bake_source(source, &source, o, progress, lut_cache);
+BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress, LutCache* lut_cache,
+                        OutputSink* sink) {
+    return bake_source(source, &source, o, progress, lut_cache, sink);
 }
 
 BakeResult compute_bake_view(ImageView source, const BakeOptions& o, const ProgressFn& progress,
-                             LutCache* lut_cache) {
-    return bake_source(source, nullptr, o, progress, lut_cache);
+                             LutCache* lut_cache, OutputSink* sink) {
+    return bake_source(source, nullptr, o, progress, lut_cache, sink);
 }
 
 }  // namespace iblbake
@@ -599,10 +609,11 @@ BakeResult compute_bake_view(ImageView source, const BakeOptions& o, const Progr
 namespace iblbake {
 
 BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOptions& o, const ProgressFn& progress,
-                                 LutCache* lut_cache) {
+                                 LutCache* lut_cache, OutputSink* sink) {
     o.validate();
     return in_arena(o.threads, [&] {
         BakeResult r;
+        const SinkGuard guard{sink};
         StageClock clock(r);
         auto report = [&](const std::string& stage, double f) {
             if (progress && !progress(stage, f)) throw Cancelled();
@@ -623,16 +634,21 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
             r.mean_radiance[k] = c[k];
             r.sh9[k][0] = 2.0 * std::sqrt(kPi) * c[k];  // integral of Y_00 = 1 / (2 sqrt(pi)) over the sphere
         }
-        if (o.irradiance) r.irradiance = fill(o.irradiance_size);
-        else r.skipped.push_back(skip_reason(o, "irradiance", "disabled by option"));
+        if (o.irradiance) {
+            r.irradiance = fill(o.irradiance_size);
+            if (sink) sink->cube("irradiance", *r.irradiance);
+        } else {
+            r.skipped.push_back(skip_reason(o, "irradiance", "disabled by option"));
+        }
         if (!o.irradiance && o.extra.irradiance) r.extra_irradiance = fill(o.irradiance_size);
         for (const SpecularLevelRequest& e : o.extra.specular)
-            r.extra_specular.push_back({e.face_size, e.roughness, fill(e.face_size), 0, "closed form (constant world)",
-                                        false});
+            r.extra_specular.push_back({e.face_size, e.roughness, fill(e.face_size), 0, "closed form (constant world)"});
         if (o.extra.keep_source) r.source = one;
         if (o.specular) {
+            r.specular.reserve(size_t(o.resolved_last_level() - o.first_level + 1));  // the sink holds references
             for (int m = o.first_level; m <= o.resolved_last_level(); ++m) {
                 r.specular.push_back(fill(std::max(1, o.face_size >> m)));
+                if (sink) sink->cube("specular_" + std::to_string(m), r.specular.back());
                 r.specular_levels.push_back(m);
                 r.roughness.push_back(o.mip_roughness(m));
                 r.samples_per_texel.push_back(0);
@@ -646,12 +662,14 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         if (o.lut) {
             report("brdf_lut", 0.5);
             lut_stage(r, o, lut_cache);
+            if (sink) sink->lut(*r.lut);
             clock.done("brdf_lut");
         } else {
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
         extra_lut_stage(r, o, lut_cache);
         check_outputs(r, false);
+        if (sink) sink->wait();
         report("done", 1.0);
         return r;
     });

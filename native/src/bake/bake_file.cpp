@@ -26,9 +26,11 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     BakeOptions o = with_exports(bo, wo);  // the levels and files the presets need
     o.warnings.insert(o.warnings.begin(), loaded.warnings.begin(), loaded.warnings.end());
-    BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache);
+    // Every SPEC file is written as soon as its output is made, while the bake goes on.
+    BakeWriter writer(outdir, wo, progress);
+    BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache, &writer);
     r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
-    return write_bake(r, outdir, o, wo, src, progress);
+    return writer.finish(r, o, src);
 }
 
 }  // namespace iblbake

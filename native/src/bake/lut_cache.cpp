@@ -22,25 +22,6 @@ std::string lut_cache_key(int size, LutModel model, const LutQuality& q) {
            (q.row_nodes >= 4 && q.row_nodes < size ? "-k" + std::to_string(q.row_nodes) : "");
 }
 
-std::string specular_normaliser_key(int face_size, double roughness, double eps, int tile, int finest_bins) {
-    char buf[160];
-    std::snprintf(buf, sizeof(buf), "spec_norm-v%d-n%d-r%.17g-eps%.17g-t%d-b%d", kSpecularNormaliserVersion, face_size,
-                  roughness, eps, tile, finest_bins);
-    return buf;
-}
-
-std::optional<std::vector<float>> LutCache::load_floats(const std::string& key, size_t count) {
-    const std::optional<Image> img = load(key);
-    if (!img || img->height != 1 || size_t(img->width) != (count + 2) / 3) return std::nullopt;
-    return std::vector<float>(img->pixels.begin(), img->pixels.begin() + count);
-}
-
-void LutCache::store_floats(const std::string& key, const std::vector<float>& values) {
-    Image img(int((values.size() + 2) / 3), 1);
-    std::copy(values.begin(), values.end(), img.pixels.begin());
-    store(key, img);
-}
-
 namespace {
 
 // Entry layout: 8-byte magic, width and height (int32, this machine's

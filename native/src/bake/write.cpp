@@ -5,8 +5,11 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <atomic>
 #include <mutex>
 #include <memory>
+
+#include <tbb/task_group.h>
 
 #include "iblbake/export/export.h"
 #include "iblbake/ibl/parallel.h"
@@ -170,9 +173,7 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                         {"face_size", r.specular[i].size},
                         {"roughness", r.roughness[i]},
                         {"samples_per_texel", r.samples_per_texel[i]},
-                        {"method", r.specular_methods[i]},
-                        {"normaliser_from_cache", i < r.specular_normaliser_from_cache.size() &&
-                                                      r.specular_normaliser_from_cache[i] != 0}});
+                        {"method", r.specular_methods[i]}});
     }
     m["specular"] = spec;
     m["specular_roughness_mapping"] = "linear: r_m = m / (M - 1)";
@@ -216,10 +217,14 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     m["timings"] = timings;
     m["mean_radiance"] = r.mean_radiance;
     m["warnings"] = r.warnings;
+    // The instruction set the hierarchical specular sum ran on (null: none ran).
+    m["specular_kernel"] = r.specular_kernel.empty() ? json(nullptr) : json(r.specular_kernel);
     m["files"] = json::object();  // filled by write_bake
     m["integration_grid"] = {{"width", r.integration_width},
                              {"height", r.integration_height},
-                             {"note", "sources coarser than this are resampled from the bilinear L (SPEC 1) onto it"}};
+                             {"note", "the grid the hot split and, with specular_method fis, the rest cube read; "
+                                      "sources under 512 across are resampled from the bilinear L (SPEC 1) onto it "
+                                      "for fis only (the hierarchical bins integrate L exactly)"}};
     m["hot_texels"] = {{"count", r.hot_texels},
                        {"threshold", r.hot_threshold},
                        {"power_fraction", r.hot_power_fraction}};
@@ -255,66 +260,129 @@ BakeOptions with_exports(BakeOptions bo, const WriteOptions& wo) {
     return bo;
 }
 
-json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
-                const SourceInfo& src, const ProgressFn& progress) {
-    wo.validate();
-    const auto start = std::chrono::steady_clock::now();
-    io::StagingDir staging(outdir);
-    const fs::path dir = staging.path();
+struct BakeWriter::Impl {
+    WriteOptions wo;
+    io::StagingDir staging;
+    ProgressFn progress;
+    tbb::task_group tasks;
+    std::mutex mutex;                                 // parts and error
+    std::vector<std::pair<std::string, json>> parts;  // per file set, merged in name order
+    std::exception_ptr error;
+    std::atomic<bool> aborted{false}, computed{false};
     std::mutex poll_mutex;
     bool stopped = false;
-    const Poll poll = [&] {
-        if (!progress) return;
-        std::lock_guard<std::mutex> lock(poll_mutex);
-        if (stopped || !progress("writing", 1.0)) {  // the computing is done
-            stopped = true;
-            throw Cancelled();
+    Poll poll;
+    Impl(const fs::path& outdir, const WriteOptions& w, const ProgressFn& p) : wo(w), staging(outdir), progress(p) {
+        // Between bands of rows: a writer being destroyed stops at once; once
+        // the bake is computed, the caller is asked too (while it computes,
+        // its own progress calls are the bake's).
+        poll = [this] {
+            if (aborted.load(std::memory_order_relaxed)) throw Cancelled();
+            if (!progress || !computed.load(std::memory_order_relaxed)) return;
+            std::lock_guard<std::mutex> lock(poll_mutex);
+            if (stopped || !progress("writing", 1.0)) {  // the computing is done
+                stopped = true;
+                throw Cancelled();
+            }
+        };
+    }
+
+    // Runs job on its own task; records its encodings or its failure.
+    void run(const std::string& name, std::function<void(json&)> job) {
+        tasks.run([this, name, job = std::move(job)] {
+            {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (error) return;
+            }
+            json e = json::object();
+            try {
+                job(e);
+            } catch (...) {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (!error) error = std::current_exception();
+                return;
+            }
+            std::lock_guard<std::mutex> lock(mutex);
+            parts.emplace_back(name, std::move(e));
+        });
+    }
+};
+
+BakeWriter::BakeWriter(const fs::path& outdir, const WriteOptions& wo, const ProgressFn& progress) {
+    wo.validate();
+    impl_ = std::make_unique<Impl>(outdir, wo, progress);
+}
+
+BakeWriter::~BakeWriter() {
+    // Nothing may still write into the staging folder when it is removed.
+    impl_->aborted = true;
+    impl_->tasks.cancel();
+    impl_->tasks.wait();
+}
+
+void BakeWriter::cube(const std::string& stem, const Cubemap& cube) {
+    Impl& im = *impl_;
+    const fs::path dir = im.staging.path();
+    im.run(stem, [&im, dir, stem, &cube](json& e) { write_cross(dir, stem, cube, im.wo, e, im.poll); });
+}
+
+void BakeWriter::lut(const Image& lut) {
+    Impl& im = *impl_;
+    const fs::path dir = im.staging.path();
+    im.run("brdf_lut", [&im, dir, &lut](json& e) {
+        im.poll();
+        if (im.wo.exr) {
+            io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
+            e["brdf_lut.exr"] = "float";
         }
-    };
-    // One job per file set, written in parallel (separate files, separate
-    // encoders); each records its encodings, merged in a fixed order.
-    std::vector<std::function<void(json&)>> jobs;
-    if (r.irradiance) jobs.push_back([&](json& e) { write_cross(dir, "irradiance", *r.irradiance, wo, e, poll); });
-    for (size_t i = 0; i < r.specular.size(); ++i)
-        jobs.push_back([&, i](json& e) {
-            write_cross(dir, "specular_" + std::to_string(r.specular_levels[i]), r.specular[i], wo, e, poll);
-        });
-    if (r.lut)
-        jobs.push_back([&](json& e) {
-            poll();
-            const Image& lut = *r.lut;
-            if (wo.exr) {
-                io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
-                e["brdf_lut.exr"] = "float";
-            }
-            if (wo.png) {
-                std::vector<float> v(lut.pixels.size());
-                for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
-                io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
-                e["brdf_lut.png"] = "unorm16";
-            }
-        });
+        if (im.wo.png) {
+            std::vector<float> v(lut.pixels.size());
+            for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
+            io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
+            e["brdf_lut.png"] = "unorm16";
+        }
+    });
+}
+
+void BakeWriter::computed() { impl_->computed = true; }
+
+void BakeWriter::wait() {
+    impl_->tasks.wait();
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    if (impl_->error) std::rethrow_exception(impl_->error);
+}
+
+json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const SourceInfo& src) {
+    Impl& im = *impl_;
+    const auto start = std::chrono::steady_clock::now();
+    computed();
+    const fs::path dir = im.staging.path();
+    const WriteOptions& wo = im.wo;
+    // What needs the whole result: the preview sheet and each engine
+    // preset's files into dir/<preset> (export/export.h).
     if (wo.preview)
-        jobs.push_back([&](json& e) {
-            poll();
+        im.run("preview.png", [&im, dir, &r](json& e) {
+            im.poll();
             write_preview((dir / "preview.png").string(), r);
             e["preview.png"] = "srgb8";
         });
-    // Each engine preset's files into dir/<preset> (export/export.h).
     const std::vector<PresetPlan> plans = plan_presets(bo, wo.presets);  // the jobs refer to it
     const std::vector<ExportJob> exports = export_jobs(r, bo, plans, dir, "iblbake " IBLBAKE_VERSION);
     std::vector<json> preset_parts(exports.size());
-    for (size_t k = 0; k < exports.size(); ++k) jobs.push_back([&, k](json&) {
-            poll();
+    for (size_t k = 0; k < exports.size(); ++k)
+        im.run("~preset", [&im, &exports, &preset_parts, k](json&) {
+            im.poll();
             preset_parts[k] = exports[k].run();
         });
-    std::vector<json> parts(jobs.size(), json::object());
-    parallel_for(0, int(jobs.size()), [&](int k) { jobs[k](parts[k]); });
+    wait();
+    std::stable_sort(im.parts.begin(), im.parts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     json encodings = json::object();
-    for (const json& part : parts)
-        for (const auto& [file, enc] : part.items()) encodings[file] = enc;
-    const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    json manifest = make_manifest(r, bo, wo, src, encodings, write_seconds);
+    for (const auto& part : im.parts)
+        for (const auto& [file, enc] : part.second.items()) encodings[file] = enc;
+    // "write": how long the files kept the bake waiting once it was computed
+    // (the SPEC files were written while it ran).
+    const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    json manifest = make_manifest(r, bo, wo, src, encodings, waited);
     if (!exports.empty()) {
         json presets = json::object();
         for (size_t k = 0; k < exports.size(); ++k) presets[exports[k].preset] = preset_parts[k];
@@ -327,7 +395,7 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
     for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
          it.increment(ec)) {
         if (!it->is_regular_file()) continue;
-        poll();
+        im.poll();
         const std::string rel = fs::relative(it->path(), dir).generic_string();
         files[rel] = {{"bytes", it->file_size()}, {"sha256", io::sha256_file(it->path().string())}};
     }
@@ -339,9 +407,19 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& 
         f.close();
         if (!f) throw std::runtime_error("cannot write manifest.json");
     }
-    poll();  // the last moment a cancel leaves the earlier bake in place
-    staging.commit();
+    im.poll();  // the last moment a cancel leaves the earlier bake in place
+    im.staging.commit();
     return manifest;
+}
+
+json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
+                const SourceInfo& src, const ProgressFn& progress) {
+    BakeWriter w(outdir, wo, progress);
+    w.computed();  // the caller's bake is done: every write polls
+    if (r.irradiance) w.cube("irradiance", *r.irradiance);
+    for (size_t i = 0; i < r.specular.size(); ++i) w.cube("specular_" + std::to_string(r.specular_levels[i]), r.specular[i]);
+    if (r.lut) w.lut(*r.lut);
+    return w.finish(r, bo, src);
 }
 
 }  // namespace iblbake

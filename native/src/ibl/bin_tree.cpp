@@ -13,20 +13,14 @@ namespace iblbake {
 
 namespace {
 
-// Fills a BinLevel row by row from exact bins: centroids, weights, radii.
+// Fills a BinLevel row by row from exact bins: radiance centroids, powers,
+// covariances, radii.
 class LevelFiller {
 public:
-    LevelFiller(BinLevel& level, int w, int h)
-        : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1), lon_(w) {
-        // Each bin's geometry straight from its rectangle's exact integrals
-        // (not summed from source texel pieces): the same for every source, so
-        // anything computed from geometry alone can be reused across bakes.
-        for (int x = 0; x < w; ++x) lon_[x] = lon_integrals(double(x) / w, double(x + 1) / w);
+    LevelFiller(BinLevel& level, int w, int h) : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1) {
         L_.w = w;
         L_.h = h;
-        const size_t n = size_t(w) * h;
-        for (auto* v : {&L_.px, &L_.py, &L_.pz, &L_.cx, &L_.cy, &L_.cz, &L_.omega, &L_.radius}) v->resize(n);
-        for (auto& v : L_.power) v.resize(n);
+        L_.nodes.assign(size_t(w) * h, BinNode{});
         // Longitudes at every half bin (the radius test's 3 x 3 points per
         // bin): cos and sin once per level, not per bin.
         for (int k = 0; k <= 2 * w; ++k) {
@@ -38,7 +32,6 @@ public:
 
     void row(int y, const Bin* bins) const {
         const double v0 = 1.0 - double(y + 1) / h_, v1 = 1.0 - double(y) / h_;
-        const LatIntegrals lat = lat_integrals(v0, v1);
         double clat[3], slat[3];
         for (int r = 0; r < 3; ++r) {
             const double lat = (v0 + (v1 - v0) * 0.5 * r - 0.5) * kPi;
@@ -46,31 +39,32 @@ public:
             slat[r] = std::sin(lat);
         }
         for (int x = 0; x < w_; ++x) {
-            const size_t i = L_.index(x, y);
+            BinNode& nd = L_.nodes[L_.index(x, y)];
             const Bin& b = bins[x];
-            Vec3d c = rect_moment(lon_[x], lat);
-            const double cl = length(c);
-            c = cl > 0.0 ? c / cl : blender_to_engine(latlong_to_direction((x + 0.5) / w_, 0.5 * (v0 + v1)));
-            Vec3d p{0, 0, 0};
-            for (int ch = 0; ch < 3; ++ch) p += Vec3d{b.vector[ch][0], b.vector[ch][1], b.vector[ch][2]};
-            const double pl = length(p);
-            p = pl > 0.0 ? p / pl : c;
-            L_.cx[i] = float(c.x); L_.cy[i] = float(c.y); L_.cz[i] = float(c.z);
-            L_.px[i] = float(p.x); L_.py[i] = float(p.y); L_.pz[i] = float(p.z);
-            // Weights shrunk by |first moment| / zeroth moment: a bin used at its
-            // (unit) centroid then integrates any kernel linear in n.w exactly,
-            // where Omega alone would overweight a wide bin by about radius^2 / 6.
             const double psum = b.power[0] + b.power[1] + b.power[2];
-            const double pshrink = psum > 0.0 ? pl / psum : 1.0;
-            for (int ch = 0; ch < 3; ++ch) L_.power[ch][i] = float(b.power[ch] * pshrink);
-            L_.omega[i] = float(cl);
+            Vec3d m{0, 0, 0};
+            for (int ch = 0; ch < 3; ++ch) m += Vec3d{b.vector[ch][0], b.vector[ch][1], b.vector[ch][2]};
+            const double ml = length(m);
+            for (int ch = 0; ch < 3; ++ch) nd.power[ch] = float(b.power[ch]);
+            if (!(psum > 0.0) || !(ml > 0.0)) {  // no radiance: never used
+                nd.radius = -1.0f;
+                continue;
+            }
+            m = m / psum;  // |m| <= 1
+            const Vec3d p = m / (ml / psum);
+            nd.px = float(p.x), nd.py = float(p.y), nd.pz = float(p.z);
+            nd.g = float(std::max(0.0, 1.0 - ml / psum));
+            const double* s = b.second;
+            const double cov[6] = {s[0] / psum - m.x * m.x, s[1] / psum - m.y * m.y, s[2] / psum - m.z * m.z,
+                                   s[3] / psum - m.x * m.y, s[4] / psum - m.x * m.z, s[5] / psum - m.y * m.z};
+            for (int k = 0; k < 6; ++k) nd.cov[k] = float(cov[k]);
             double min_cos = 1.0;
             for (int k = 0; k < 9; ++k) {
                 const int col = 2 * x + k % 3, r = k / 3;
                 const Vec3d blender{clat[r] * cphi_[col], clat[r] * sphi_[col], slat[r]};
-                min_cos = std::min(min_cos, dot(c, blender_to_engine(blender)));
+                min_cos = std::min(min_cos, dot(p, blender_to_engine(blender)));
             }
-            L_.radius[i] = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
+            nd.radius = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
         }
     }
 
@@ -78,7 +72,6 @@ private:
     BinLevel& L_;
     int w_, h_;
     std::vector<double> cphi_, sphi_;
-    std::vector<LonIntegrals> lon_;
 };
 
 BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {

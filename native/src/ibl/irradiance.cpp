@@ -2,59 +2,196 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
+#include "iblbake/math/latlong.h"
 
 namespace iblbake {
 
 namespace {
 
-// One output direction against the whole cloud: a structure-of-arrays sum
-// in kLanes independent float partials (so the loop vectorises and the
-// order is fixed), float within blocks, double across them.
-void convolve_direction(const VectorCloud& cloud, const Vec3d& n, float out[3]) {
+// One output direction against the bin groups: the groups in kLanes
+// independent float partials (the loop vectorises, the order is fixed),
+// those across n's horizon then bin by bin, float within blocks, double
+// across them.
+void convolve_direction(const BinGroups& g, const Vec3d& n, float out[3]) {
     constexpr size_t kLanes = 16, kBlock = 256;
     const float nx = float(n.x), ny = float(n.y), nz = float(n.z);
-    const size_t count = cloud.size(), whole = count / kLanes * kLanes;
+    const size_t count = size_t(g.count), whole = count / kLanes * kLanes;
+    // whole[p]: 1 for a group wholly on one side of n's horizon (then
+    // max(0, n.V) of its sum is exact: all of it, or none), else 0.
+    thread_local std::vector<float> whole_group;
+    thread_local std::vector<uint32_t> across;  // the other groups, by index (a branch-free compaction)
+    whole_group.resize(count);
+    across.resize(count + 1);
+    float* wg = whole_group.data();
+    uint32_t* ac = across.data();
+    const float *cx = g.cx.data(), *cy = g.cy.data(), *cz = g.cz.data(), *sr = g.sin_radius.data();
+    for (size_t p = 0; p < count; ++p)  // vectorises
+        wg[p] = std::fabs(nx * cx[p] + ny * cy[p] + nz * cz[p]) > sr[p] ? 1.0f : 0.0f;
+    size_t n_across = 0;
+    for (size_t p = 0; p < count; ++p) {  // branch-free compaction
+        ac[n_across] = uint32_t(p);
+        n_across += wg[p] == 0.0f;
+    }
     for (int c = 0; c < 3; ++c) {
-        const float* x = cloud.x[c].data();
-        const float* y = cloud.y[c].data();
-        const float* z = cloud.z[c].data();
+        const float* x = g.vx[c].data();
+        const float* y = g.vy[c].data();
+        const float* z = g.vz[c].data();
         double total = 0.0;
         for (size_t b = 0; b < whole; b += kBlock) {
             const size_t e = std::min(whole, b + kBlock);
             float s[kLanes] = {};
             for (size_t p = b; p < e; p += kLanes)
-                for (size_t l = 0; l < kLanes; ++l)
-                    s[l] += std::max(0.0f, nx * x[p + l] + ny * y[p + l] + nz * z[p + l]);
+                for (size_t l = 0; l < kLanes; ++l) {
+                    const float v = nx * x[p + l] + ny * y[p + l] + nz * z[p + l];
+                    s[l] += wg[p + l] * std::max(0.0f, v);
+                }
             float t = 0.0f;
             for (float v : s) t += v;
             total += t;
         }
-        for (size_t p = whole; p < count; ++p) total += std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
-        out[c] = float(total / kPi);
+        for (size_t p = whole; p < count; ++p) total += wg[p] * std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
+        // Groups across the horizon, bin by bin.
+        float t = 0.0f;
+        for (size_t q = 0; q < n_across; ++q) {
+            const size_t p = ac[q];
+            for (size_t k = 4 * p; k < 4 * p + 4; ++k)
+                t += std::max(0.0f, nx * g.bx[c][k] + ny * g.by[c][k] + nz * g.bz[c][k]);
+        }
+        out[c] = float((total + t) / kPi);
     }
 }
 
-void convolve_cube(Cubemap& dst, const VectorCloud& cloud) {
+// The hot points as structure-of-arrays: mean direction m, covariance,
+// power, and 5 sqrt(trace C), beyond which |n.m| is surely 5 sigma from n's
+// horizon.
+struct HotPoints {
+    size_t count = 0;
+    std::vector<float> mx, my, mz, c[6], p[3], reach;
+    explicit HotPoints(const std::vector<RadiancePoint>& hot) : count(hot.size()) {
+        for (auto* v : {&mx, &my, &mz, &reach}) v->resize(count);
+        for (auto& v : c) v.resize(count);
+        for (auto& v : p) v.resize(count);
+        for (size_t k = 0; k < count; ++k) {
+            mx[k] = hot[k].mean_dir[0], my[k] = hot[k].mean_dir[1], mz[k] = hot[k].mean_dir[2];
+            for (int i = 0; i < 6; ++i) c[i][k] = hot[k].cov[i];
+            for (int i = 0; i < 3; ++i) p[i][k] = hot[k].power[i];
+            reach[k] = 5.0f * std::sqrt(std::max(0.0f, c[0][k] + c[1][k] + c[2][k]));
+        }
+    }
+};
+
+// The hot points' share, (1/pi) sum P_c E[max(0, n.w)] over each point's hat:
+// P max(0, mu) in one vectorised pass (fixed lanes), then the few within 5
+// sigma of n's horizon corrected to the Gaussian model's value.
+void hot_direction(const HotPoints& h, const Vec3d& n, float out[3]) {
+    if (h.count == 0) return;
+    constexpr size_t kLanes = 16;
+    const float nx = float(n.x), ny = float(n.y), nz = float(n.z);
+    thread_local std::vector<uint32_t> near;
+    near.resize(h.count + 1);
+    size_t n_near = 0;
+    float s0[kLanes] = {}, s1[kLanes] = {}, s2[kLanes] = {};
+    const size_t whole = h.count / kLanes * kLanes;
+    auto term = [&](size_t k, size_t l) {
+        const float mu = nx * h.mx[k] + ny * h.my[k] + nz * h.mz[k];
+        const float e = std::max(0.0f, mu);
+        s0[l] += h.p[0][k] * e;
+        s1[l] += h.p[1][k] * e;
+        s2[l] += h.p[2][k] * e;
+    };
+    for (size_t k0 = 0; k0 < whole; k0 += kLanes)
+        for (size_t l = 0; l < kLanes; ++l) term(k0 + l, l);
+    for (size_t k = whole; k < h.count; ++k) term(k, 0);
+    for (size_t k = 0; k < h.count; ++k) {  // branch-free compaction
+        near[n_near] = uint32_t(k);
+        n_near += std::fabs(nx * h.mx[k] + ny * h.my[k] + nz * h.mz[k]) < h.reach[k];
+    }
+    double acc[3] = {0, 0, 0};
+    for (size_t l = 0; l < kLanes; ++l) acc[0] += s0[l], acc[1] += s1[l], acc[2] += s2[l];
+    for (size_t q = 0; q < n_near; ++q) {
+        const size_t k = near[q];
+        const double mu = nx * h.mx[k] + ny * h.my[k] + nz * h.mz[k];
+        const double var = h.c[0][k] * nx * nx + h.c[1][k] * ny * ny + h.c[2][k] * nz * nz +
+                           2.0 * (h.c[3][k] * nx * ny + h.c[4][k] * nx * nz + h.c[5][k] * ny * nz);
+        if (!(var > 0.0) || !(mu * mu < 25.0 * var)) continue;  // within 5 sigma of the horizon
+        const double sigma = std::sqrt(var), z = mu / sigma;
+        const double e = mu * 0.5 * std::erfc(-z / std::sqrt(2.0)) + sigma * std::exp(-0.5 * z * z) / std::sqrt(2.0 * kPi);
+        const double d = e - std::max(0.0, double(std::max(0.0f, nx * h.mx[k] + ny * h.my[k] + nz * h.mz[k])));
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += h.p[ch][k] * d;
+    }
+    for (int ch = 0; ch < 3; ++ch) out[ch] += float(acc[ch] / kPi);
+}
+
+void convolve_cube(Cubemap& dst, const BinGroups& cloud, const HotPoints& hot) {
     const int n = dst.size;
     parallel_for(0, 6 * n, [&](int row) {
         const int f = row / n, j = row % n;
-        for (int i = 0; i < n; ++i) convolve_direction(cloud, texel_direction(f, i, j, n), dst.at(f, i, j));
+        for (int i = 0; i < n; ++i) {
+            const Vec3d d = texel_direction(f, i, j, n);
+            convolve_direction(cloud, d, dst.at(f, i, j));
+            hot_direction(hot, d, dst.at(f, i, j));
+        }
     });
 }
 
 }  // namespace
 
-void irradiance_convolve(Cubemap& dst, const VectorCloud& cloud, int exact_face_limit) {
+BinGroups group_bins(const std::vector<Bin>& bins, int bw, int bh) {
+    BinGroups g;
+    const int gw = (bw + 1) / 2, gh = (bh + 1) / 2;
+    g.count = gw * gh;
+    for (auto* v : {&g.cx, &g.cy, &g.cz, &g.sin_radius}) v->resize(g.count);
+    for (int c = 0; c < 3; ++c) {
+        for (auto* v : {&g.vx[c], &g.vy[c], &g.vz[c]}) v->assign(g.count, 0.0f);
+        for (auto* v : {&g.bx[c], &g.by[c], &g.bz[c]}) v->assign(size_t(4) * g.count, 0.0f);
+    }
+    for (int gy = 0; gy < gh; ++gy)
+        for (int gx = 0; gx < gw; ++gx) {
+            const int k = gy * gw + gx;
+            // The group's rectangle: bins 2gx .. 2gx+1 (clipped), rows likewise.
+            const int x1 = std::min(bw, 2 * gx + 2), y1 = std::min(bh, 2 * gy + 2);
+            const double u0 = double(2 * gx) / bw, u1 = double(x1) / bw;
+            const double v0 = 1.0 - double(y1) / bh, v1 = 1.0 - double(2 * gy) / bh;
+            Vec3d c = rect_moment(lon_integrals(u0, u1), lat_integrals(v0, v1));
+            c = length(c) > 0.0 ? normalize(c) : blender_to_engine(latlong_to_direction(0.5 * (u0 + u1), 0.5 * (v0 + v1)));
+            double min_cos = 1.0;
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) {
+                    const Vec3d p = blender_to_engine(latlong_to_direction(u0 + 0.5 * i * (u1 - u0), v0 + 0.5 * j * (v1 - v0)));
+                    min_cos = std::min(min_cos, dot(c, p));
+                }
+            const double radius = std::acos(std::clamp(min_cos, -1.0, 1.0)) * (1.0 + 1e-6) + 1e-6;
+            g.cx[k] = float(c.x), g.cy[k] = float(c.y), g.cz[k] = float(c.z);
+            g.sin_radius[k] = radius < 0.5 * kPi ? float(std::sin(radius)) : 2.0f;
+            int m = 4 * k;
+            for (int y = 2 * gy; y < y1; ++y)
+                for (int x = 2 * gx; x < x1; ++x, ++m) {
+                    const Bin& b = bins[size_t(y) * bw + x];
+                    for (int ch = 0; ch < 3; ++ch) {
+                        g.bx[ch][m] = float(b.vector[ch][0]), g.by[ch][m] = float(b.vector[ch][1]);
+                        g.bz[ch][m] = float(b.vector[ch][2]);
+                        g.vx[ch][k] += float(b.vector[ch][0]), g.vy[ch][k] += float(b.vector[ch][1]);
+                        g.vz[ch][k] += float(b.vector[ch][2]);
+                    }
+                }
+        }
+    return g;
+}
+
+void irradiance_convolve(Cubemap& dst, const BinGroups& cloud, const std::vector<RadiancePoint>& hot,
+                         int exact_face_limit) {
+    const HotPoints points(hot);
     if (dst.size <= exact_face_limit) {
-        convolve_cube(dst, cloud);
+        convolve_cube(dst, cloud, points);
         return;
     }
     Cubemap coarse(exact_face_limit);
-    convolve_cube(coarse, cloud);
+    convolve_cube(coarse, cloud, points);
     const BorderedCube src = BorderedCube::from_cube(coarse);
     const int n = dst.size;
     parallel_for(0, 6 * n, [&](int row) {

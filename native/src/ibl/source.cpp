@@ -173,6 +173,11 @@ Image remap_latlong(ImageView img, const std::array<double, 9>& a, const std::ar
     return out;
 }
 
+namespace {
+void add_hat_product(Bin& b, const double v[3], const double* s0, const double* s1, const double* s2,
+                     const double* c0, const double* c1, const double U[6]);
+}  // namespace
+
 HotSplit split_hot(ImageView img, double relative_threshold, int max_hot) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
@@ -240,6 +245,9 @@ HotSplit split_hot(ImageView img, double relative_threshold, int max_hot) {
     }
     out.threshold = threshold;
 
+    // A texel's value reaches the sphere through its hats (SPEC's bilinear
+    // L): its point carries the hats' integrals (over the whole sphere).
+    const std::vector<HatPiece> lon_hats = hat_pieces_lon(w, 1), lat_hats = hat_pieces_lat(h, 1);
     double hot_power = 0.0;
     for (int y = 0; y < h; ++y)
         for (const auto& [x, m] : row_cands[y]) {
@@ -249,13 +257,26 @@ HotSplit split_hot(ImageView img, double relative_threshold, int max_hot) {
             HotTexel t{x, y, {0, 0, 0}};
             RadiancePoint p;
             const Vec3d d = tab.engine_dir(x, y);
-            const Vec3d md = rect_moment(tab.lon[x], tab.lat[y]) / tab.omega[y];
+            const double* U = lon_hats[x].w;
+            const double* V = lat_hats[y].w;
+            const double om = U[0] * V[0];
+            const Vec3d md = Vec3d{U[1] * V[3], U[0] * V[1], -U[2] * V[3]} / om;
             p.dir[0] = float(d.x); p.dir[1] = float(d.y); p.dir[2] = float(d.z);
             p.mean_dir[0] = float(md.x); p.mean_dir[1] = float(md.y); p.mean_dir[2] = float(md.z);
+            {
+                Bin one{};
+                const double unit[3] = {1.0, 0.0, 0.0}, s0[3] = {V[0], 0, 0}, s1[3] = {V[1], 0, 0},
+                             s2[3] = {V[2], 0, 0}, c0[3] = {V[3], 0, 0}, c1[3] = {V[4], 0, 0};
+                add_hat_product(one, unit, s0, s1, s2, c0, c1, U);
+                const double* sm = one.second;
+                const double cv[6] = {sm[0] / om - md.x * md.x, sm[1] / om - md.y * md.y, sm[2] / om - md.z * md.z,
+                                      sm[3] / om - md.x * md.y, sm[4] / om - md.x * md.z, sm[5] / om - md.y * md.z};
+                for (int k = 0; k < 6; ++k) p.cov[k] = float(cv[k]);
+            }
             for (int k = 0; k < 3; ++k) {
                 const float rest = px[k] * scale;
                 t.removed[k] = px[k] - rest;
-                p.power[k] = float(double(t.removed[k]) * tab.omega[y]);
+                p.power[k] = float(double(t.removed[k]) * om);
                 hot_power += p.power[k];
             }
             out.texels.push_back(t);
@@ -275,60 +296,77 @@ Image rest_image(ImageView img, const HotSplit& split) {
     return rest;
 }
 
-void VectorCloud::add(const float dir[3], const float power[3]) {
-    for (int c = 0; c < 3; ++c) {
-        x[c].push_back(dir[0] * power[c]);
-        y[c].push_back(dir[1] * power[c]);
-        z[c].push_back(dir[2] * power[c]);
-    }
-}
-
 BinReduction::BinReduction(ImageView img, int bw, int bh)
     : img_(img), bw_(std::max(1, bw)), bh_(std::max(1, bh)) {
-    cols_ = overlay_partitions(img.width, bw_);
-    rows_ = overlay_partitions(img.height, bh_);  // t = 1 - v, from the top
-    lon_.resize(cols_.size());
-    for (size_t k = 0; k < cols_.size(); ++k) lon_[k] = lon_integrals(cols_[k].t0, cols_[k].t1);
-    // Row pieces of each bin row are contiguous: bin rows are independent work.
+    cols_ = hat_pieces_lon(img.width, bw_);
+    rows_ = hat_pieces_lat(img.height, bh_);  // t = 1 - v, from the top
+    // Row pieces are sorted by bin row: bin rows are independent work.
     first_.assign(bh_ + 1, rows_.size());
-    for (size_t k = rows_.size(); k-- > 0;) first_[rows_[k].b] = k;
+    for (size_t k = rows_.size(); k-- > 0;) first_[rows_[k].bin] = k;
+    for (int r = bh_; r-- > 0;) first_[r] = std::min(first_[r], first_[r + 1]);
 }
 
-// A bin's integrals are sums of v(x, y) lon(x) lat(y) over its pieces
-// (rect_moment, rect_solid_angle), and only three latitude terms appear (s0,
-// s1, c0). So first sum each pixel column over the bin row's row pieces
-// against those three terms (contiguous, vectorised), then weigh the column
-// sums by the longitude integrals once per bin row instead of once per pixel row.
+namespace {
+
+// Adds v (per channel) times the hat product U (longitude) x V (latitude) to
+// a bin's integrals. Longitude terms: 1, cos, sin, cos^2, sin^2, sin cos;
+// latitude terms: 1, s, s^2, sqrt(1 - s^2), s sqrt(1 - s^2) (math/latlong.h).
+// Blender w = (c cos phi, c sin phi, s), engine w = (x, z, -y).
+void add_hat_product(Bin& b, const double v[3], const double* s0, const double* s1, const double* s2,
+                     const double* c0, const double* c1, const double U[6]) {
+    double S0 = 0, S2 = 0, C1 = 0;
+    for (int c = 0; c < 3; ++c) {
+        b.power[c] += v[c] * s0[c] * U[0];
+        b.vector[c][0] += v[c] * c0[c] * U[1];
+        b.vector[c][1] += v[c] * s1[c] * U[0];
+        b.vector[c][2] -= v[c] * c0[c] * U[2];
+        S0 += v[c] * s0[c];
+        S2 += v[c] * s2[c];
+        C1 += v[c] * c1[c];
+    }
+    const double q = S0 - S2;  // integral of (1 - s^2) = cos^2(lat)
+    b.second[0] += q * U[3];   // xx = B xx
+    b.second[1] += S2 * U[0];  // yy = B zz
+    b.second[2] += q * U[4];   // zz = B yy
+    b.second[3] += C1 * U[1];  // xy = B xz
+    b.second[4] -= q * U[5];   // xz = -B xy
+    b.second[5] -= C1 * U[2];  // yz = -B yz
+}
+
+}  // namespace
+
+// A bin's integrals are sums over its (row piece, column piece) pairs of
+// L_xy V_y U_x (math/latlong.h's hats), and only five latitude terms appear.
+// So first sum each pixel column over the bin row's row pieces against those
+// five terms (contiguous, vectorised), then weigh the column sums by the
+// longitude hat integrals once per bin row instead of once per pixel row.
 void BinReduction::row(int br, Bin* out) const {
     const size_t n = size_t(img_.width) * 3;
     thread_local std::vector<double> col;
-    col.assign(3 * n, 0.0);
-    double* col_s0 = col.data();
-    double* col_s1 = col_s0 + n;
-    double* col_c0 = col_s1 + n;
-    for (size_t k = first_[br]; k < rows_.size() && rows_[k].b == br; ++k) {
-        const OverlayPiece& rp = rows_[k];
-        const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
-        const float* src = img_.at(0, rp.a);
+    col.assign(5 * n, 0.0);
+    double* cs0 = col.data();
+    double* cs1 = cs0 + n;
+    double* cs2 = cs1 + n;
+    double* cc0 = cs2 + n;
+    double* cc1 = cc0 + n;
+    for (size_t k = first_[br]; k < rows_.size() && rows_[k].bin == br; ++k) {
+        const HatPiece& rp = rows_[k];
+        const double v0 = rp.w[0], v1 = rp.w[1], v2 = rp.w[2], v3 = rp.w[3], v4 = rp.w[4];
+        const float* src = img_.at(0, rp.texel);
         for (size_t i = 0; i < n; ++i) {
             const double v = src[i];
-            col_s0[i] += v * lat.s0;
-            col_s1[i] += v * lat.s1;
-            col_c0[i] += v * lat.c0;
+            cs0[i] += v * v0;
+            cs1[i] += v * v1;
+            cs2[i] += v * v2;
+            cc0[i] += v * v3;
+            cc1[i] += v * v4;
         }
     }
     std::fill(out, out + bw_, Bin{});
-    for (size_t q = 0; q < cols_.size(); ++q) {
-        const OverlayPiece& cp = cols_[q];
-        const LonIntegrals& l = lon_[q];
-        Bin& b = out[cp.b];
-        const size_t i = size_t(cp.a) * 3;
-        for (int c = 0; c < 3; ++c) {
-            b.power[c] += col_s0[i + c] * l.p0;
-            b.vector[c][0] += col_c0[i + c] * l.pc;
-            b.vector[c][1] += col_s1[i + c] * l.p0;
-            b.vector[c][2] -= col_c0[i + c] * l.ps;
-        }
+    const double one[3] = {1.0, 1.0, 1.0};
+    for (const HatPiece& cp : cols_) {
+        const size_t i = size_t(cp.texel) * 3;
+        add_hat_product(out[cp.bin], one, cs0 + i, cs1 + i, cs2 + i, cc0 + i, cc1 + i, cp.w);
     }
 }
 
@@ -344,6 +382,7 @@ void add_bins(Bin& o, const Bin& b) {
         for (int k = 0; k < 3; ++k) o.vector[c][k] += b.vector[c][k];
         o.power[c] += b.power[c];
     }
+    for (int k = 0; k < 6; ++k) o.second[k] += b.second[k];
 }
 
 std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int bw, int bh) {
@@ -353,28 +392,25 @@ std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int b
 }
 
 void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, const HotSplit& split) {
+    if (split.texels.empty()) return;
     bw = std::max(1, bw);
     bh = std::max(1, bh);
-    const std::vector<OverlayPiece> cols = overlay_partitions(img_w, bw);
-    const std::vector<OverlayPiece> rows = overlay_partitions(img_h, bh);
-    for (const HotTexel& t : split.texels)
-        for (const OverlayPiece& rp : rows) {
-            if (rp.a != t.y) continue;
-            const LatIntegrals lat = lat_integrals(1.0 - rp.t1, 1.0 - rp.t0);
-            for (const OverlayPiece& cp : cols) {
-                if (cp.a != t.x) continue;
-                const LonIntegrals lon = lon_integrals(cp.t0, cp.t1);
-                const Vec3d m = rect_moment(lon, lat);
-                const double om = rect_solid_angle(lon, lat);
-                Bin& b = bins[size_t(rp.b) * bw + cp.b];
-                for (int c = 0; c < 3; ++c) {
-                    b.vector[c][0] -= t.removed[c] * m.x;
-                    b.vector[c][1] -= t.removed[c] * m.y;
-                    b.vector[c][2] -= t.removed[c] * m.z;
-                    b.power[c] -= t.removed[c] * om;
-                }
-            }
+    // Each hot texel's gift is spread by its hats (SPEC's bilinear L): take
+    // it out of every bin its hats reach.
+    const std::vector<HatPiece> cols = hat_pieces_lon(img_w, bw), rows = hat_pieces_lat(img_h, bh);
+    std::vector<std::vector<const HatPiece*>> by_col(img_w), by_row(img_h);
+    for (const HatPiece& p : cols) by_col[p.texel].push_back(&p);
+    for (const HatPiece& p : rows) by_row[p.texel].push_back(&p);
+    for (const HotTexel& t : split.texels) {
+        const double neg[3] = {-t.removed[0], -t.removed[1], -t.removed[2]};
+        for (const HatPiece* rp : by_row[t.y]) {
+            const double* v = rp->w;
+            const double s0[3] = {v[0], v[0], v[0]}, s1[3] = {v[1], v[1], v[1]}, s2[3] = {v[2], v[2], v[2]};
+            const double c0[3] = {v[3], v[3], v[3]}, c1[3] = {v[4], v[4], v[4]};
+            for (const HatPiece* cp : by_col[t.x])
+                add_hat_product(bins[size_t(rp->bin) * bw + cp->bin], neg, s0, s1, s2, c0, c1, cp->w);
         }
+    }
 }
 
 std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
@@ -387,19 +423,6 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
                     add_bins(out[size_t(y) * w + x], bins[size_t(2 * y + dy) * bw + 2 * x + dx]);
     });
     return out;
-}
-
-VectorCloud vector_cloud(const std::vector<Bin>& bins) {
-    VectorCloud cloud;
-    for (const Bin& b : bins) {
-        if (b.power[0] == 0.0 && b.power[1] == 0.0 && b.power[2] == 0.0) continue;
-        for (int c = 0; c < 3; ++c) {
-            cloud.x[c].push_back(float(b.vector[c][0]));
-            cloud.y[c].push_back(float(b.vector[c][1]));
-            cloud.z[c].push_back(float(b.vector[c][2]));
-        }
-    }
-    return cloud;
 }
 
 std::array<Sh9, 3> project_sh9(ImageView img) {

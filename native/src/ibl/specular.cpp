@@ -1,15 +1,21 @@
 #include "iblbake/ibl/specular.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <stdexcept>
+#include <string>
 
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/fast_math.h"
 #include "iblbake/math/ggx.h"
 #include "iblbake/math/quadrature.h"
+#include "specular_kernel.h"
 
 namespace iblbake {
 
@@ -51,10 +57,43 @@ std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQu
 }
 
 void specular_mirror(Cubemap& dst, ImageView latlong) {
-    const int n = dst.size;
+    const int n = dst.size, w = latlong.width, h = latlong.height;
     parallel_for(0, 6 * n, [&](int row) {
         const int f = row / n, j = row % n;
-        for (int i = 0; i < n; ++i) latlong_bilinear(latlong, texel_direction(f, i, j, n), dst.at(f, i, j));
+        // latlong_bilinear for a whole row: the lat-long coordinates first,
+        // in one loop that vectorises (atan2_vec), then the lookups.
+        thread_local std::vector<double> fx, fy;
+        fx.resize(n);
+        fy.resize(n);
+        const FaceFrame& fr = kFaceFrames[f];
+        const double b = 2.0 * (j + 0.5) / n - 1.0;
+        for (int i = 0; i < n; ++i) {
+            const double a = 2.0 * (i + 0.5) / n - 1.0;
+            const double ex = fr.ma.x + fr.s.x * a + fr.t.x * b, ey = fr.ma.y + fr.s.y * a + fr.t.y * b,
+                         ez = fr.ma.z + fr.s.z * a + fr.t.z * b;
+            // Blender (x, y, z) = (ex, -ez, ey); the length cancels in both angles.
+            const double bx = ex, by = -ez, bz = ey;
+            const double u = 0.5 - atan2_vec(by, bx) * (0.5 / kPi);
+            const double v = 0.5 + atan2_vec(bz, std::sqrt(bx * bx + by * by)) * (1.0 / kPi);
+            fx[i] = (u - std::floor(u)) * w - 0.5;
+            fy[i] = (1.0 - v) * h - 0.5;
+        }
+        for (int i = 0; i < n; ++i) {
+            const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
+            const double tx = fx[i] - x0f, ty = fy[i] - y0f;
+            int x0 = int(x0f) % w;
+            if (x0 < 0) x0 += w;
+            const int x1 = (x0 + 1) % w;
+            const int y0 = std::clamp(int(y0f), 0, h - 1), y1 = std::clamp(int(y0f) + 1, 0, h - 1);
+            const float *pa = latlong.at(x0, y0), *pb = latlong.at(x1, y0), *pc = latlong.at(x0, y1),
+                        *pd = latlong.at(x1, y1);
+            float* o = dst.at(f, i, j);
+            for (int k = 0; k < 3; ++k) {
+                const double top = pa[k] + (pb[k] - pa[k]) * tx;
+                const double bottom = pc[k] + (pd[k] - pc[k]) * tx;
+                o[k] = float(top + (bottom - top) * ty);
+            }
+        }
     });
 }
 
@@ -108,68 +147,81 @@ size_t specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vect
 
 namespace {
 
-// The bins a tile uses, as structure-of-arrays: power centroids p, solid-angle
-// centroids c, power per channel, solid angle.
-struct BinSoA {
-    const float *px, *py, *pz, *cx, *cy, *cz, *p0, *p1, *p2, *om;
-};
+using kernel::kFields;
+using kernel::kLanes;
 
-constexpr size_t kLanes = 16;  // independent partial sums: the loop vectorises, the order stays fixed
+// The kernel's instruction set: the best the CPU has, unless IBLBAKE_ISA
+// (baseline, avx2, avx512) asks for less; chosen once per process.
+enum class Isa { Baseline = 0, Avx2 = 1, Avx512 = 2 };
+constexpr const char* kIsaNames[] = {"baseline", "avx2", "avx512"};
 
-// sum_b K(n.p_b) power_b and (kWithDen) sum_b K(n.c_b) omega_b over `count`
-// bins (a multiple of kLanes), K the GGX prefilter kernel up to its constant
-// factor (4 a^2 / pi cancels in the ratio). Float lanes within blocks, double
-// across.
-template <bool kWithDen>
-void kernel_sums(const BinSoA& b, size_t count, float a2, const Vec3& n, double num[3], double& den) {
-    num[0] = num[1] = num[2] = den = 0.0;
-    constexpr size_t kBlock = 512;
-    for (size_t s = 0; s < count; s += kBlock) {
-        const size_t e = std::min(count, s + kBlock);
-        float s0[kLanes] = {}, s1[kLanes] = {}, s2[kLanes] = {}, sw[kLanes] = {};
-        for (size_t p = s; p < e; p += kLanes)
-            for (size_t l = 0; l < kLanes; ++l) {
-                const size_t q = p + l;
-                const float dx = n.x - b.px[q], dy = n.y - b.py[q], dz = n.z - b.pz[q];
-                // The numerator's kernel is computed alike in both variants, so
-                // a bake with a cached normaliser gives the same bits.
-                const float kp = ggx::prefilter_kernel_shape(a2, 0.5f * (dx * dx + dy * dy + dz * dz));
-                if constexpr (kWithDen) {
-                    const float ex = n.x - b.cx[q], ey = n.y - b.cy[q], ez = n.z - b.cz[q];
-                    sw[l] += ggx::prefilter_kernel_shape(a2, 0.5f * (ex * ex + ey * ey + ez * ez)) * b.om[q];
-                }
-                s0[l] += kp * b.p0[q];
-                s1[l] += kp * b.p1[q];
-                s2[l] += kp * b.p2[q];
-            }
-        float t0 = 0, t1 = 0, t2 = 0, tw = 0;
-        for (size_t l = 0; l < kLanes; ++l) {
-            t0 += s0[l];
-            t1 += s1[l];
-            t2 += s2[l];
-            tw += sw[l];
-        }
-        num[0] += t0;
-        num[1] += t1;
-        num[2] += t2;
-        den += tw;
+Isa best_isa() {
+#if defined(__x86_64__) && defined(IBLBAKE_KERNEL_X86)
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f")) return Isa::Avx512;
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return Isa::Avx2;
+#endif
+    return Isa::Baseline;
+}
+
+int isa_from_name(const char* name) {
+    for (int k = 0; k < 3; ++k)
+        if (std::strcmp(name, kIsaNames[k]) == 0) return k;
+    return -1;
+}
+
+Isa initial_isa() {
+    const Isa best = best_isa();
+    const char* env = std::getenv("IBLBAKE_ISA");
+    if (!env || !*env) return best;
+    const int asked = isa_from_name(env);
+    if (asked < 0) {
+        std::fprintf(stderr, "iblbake: IBLBAKE_ISA=%s is not baseline, avx2 or avx512; using %s\n", env,
+                     kIsaNames[int(best)]);
+        return best;
+    }
+    return Isa(std::min(asked, int(best)));  // never more than the CPU has
+}
+
+std::atomic<int>& isa_choice() {
+    static std::atomic<int> choice{int(initial_isa())};
+    return choice;
+}
+
+kernel::SumsFn kernel_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::sums_avx512;
+        case Isa::Avx2: return kernel::sums_avx2;
+#endif
+        default: return kernel::sums_baseline;
     }
 }
 
-// What a traversal needs of a lobe: its angular length scale in w (2 alpha
-// for narrow lobes, about one radian, the cosine's, as alpha -> 1) and the
-// length scale of its kink at n's horizon: K = D(h) max(0, n.w) has slope
-// D(45 deg) there, and relative to the kernel's integral Z that slope sets how
-// small bins that straddle a horizon must be: 0.1 / sqrt(D45 / Z).
-struct LobeScales {
-    float scale, horizon_scale;
-};
-LobeScales lobe_scales(double roughness) {
-    const float alpha = float(roughness * roughness), a2 = alpha * alpha;
-    const double d45 = 4.0 * a2 / (kPi * (1.0 + a2) * (1.0 + a2));
-    return {2.0f * alpha / (1.0f + alpha),
-            float(std::min(kPi, 0.1 / std::sqrt(d45 / ggx::prefilter_normalizer(alpha))))};
+}  // namespace
+
+const char* specular_kernel_isa() { return kIsaNames[isa_choice().load()]; }
+
+bool set_specular_kernel_isa(const std::string& isa) {
+    const int best = int(best_isa());
+    const int asked = isa.empty() ? best : isa_from_name(isa.c_str());
+    if (asked < 0) throw std::invalid_argument("kernel instruction set must be baseline, avx2 or avx512");
+    if (asked > best) return false;
+    isa_choice().store(asked);
+    return true;
 }
+
+double hierarchical_level_eps(const HierarchicalQuality& q, int face) {
+    return q.eps * std::clamp(std::sqrt(face / 64.0), 0.5, 1.0);
+}
+
+double hierarchical_horizon_radius(double roughness, int face, const HierarchicalQuality& q) {
+    const double alpha = roughness * roughness, a2 = alpha * alpha;
+    const double d45 = 4.0 * a2 / (kPi * (1.0 + a2) * (1.0 + a2));
+    return std::min(kPi, hierarchical_level_eps(q, face) * q.horizon / std::sqrt(d45 / ggx::prefilter_normalizer(alpha)));
+}
+
+namespace {
 
 // A tile of output texels: its texels' directions, centre and angular radius.
 struct Tile {
@@ -201,226 +253,71 @@ Tile make_tile(int tile, int n, int T) {
     return t;
 }
 
-// Traverse the tree for a tile: accept a bin whole when it is small against
-// the kernel's length scale at its least distance from the tile, gathering
-// its power centroid and power (and, with `centroids`, its solid-angle
-// centroid and solid angle) into acc, padded to whole lanes with bins of no
-// power and no solid angle. Returns the number of bins accepted.
-size_t gather_bins(const BinTree& tree, const Tile& t, const LobeScales& ls, float eps, bool centroids,
-                   std::vector<float> (&acc)[10]) {
-    thread_local std::vector<int> stack;
-    thread_local std::vector<uint32_t> accepted;  // (level << 26) | bin index, in traversal order
-    stack.clear();
+// Traverse the tree for a tile, one level at a time from the coarsest:
+// accept a bin whole when it is small against the kernel's length scale at
+// its least distance from the tile (and, when it may straddle a texel's
+// horizon, no larger than horizon_radius), else visit its four children
+// next. The accepted bins' fields go into acc, structure-of-arrays, padded
+// to whole lanes with bins of no power. Returns the number accepted.
+size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, float horizon_radius,
+                   std::vector<float> (&acc)[kFields]) {
+    thread_local std::vector<uint32_t> cur, next;
+    thread_local std::vector<const BinNode*> accepted;
+    cur.clear();
     accepted.clear();
-    const int top = int(tree.levels.size()) - 1;
-    const BinLevel& coarsest = tree.levels[top];
-    for (int y = 0; y < coarsest.h; ++y)
-        for (int x = 0; x < coarsest.w; ++x) stack.push_back((top << 26) | (y << 13) | x);
     const Vec3& c = t.c;
     const float rho = t.rho;
-    while (!stack.empty()) {
-        const int code = stack.back();
-        stack.pop_back();
-        const int lvl = code >> 26, y = (code >> 13) & 8191, x = code & 8191;
+    const int top = int(tree.levels.size()) - 1;
+    for (int b = 0; b < tree.levels[top].w * tree.levels[top].h; ++b) cur.push_back(uint32_t(b));
+    for (int lvl = top; lvl >= 0 && !cur.empty(); --lvl) {
         const BinLevel& L = tree.levels[lvl];
-        const size_t b = L.index(x, y);
-        if (!(L.omega[b] > 0.0f)) continue;
-        const float cosd = c.x * L.cx[b] + c.y * L.cy[b] + c.z * L.cz[b];
-        const float d = fast_acos(cosd);
-        const float beta = L.radius[b];
-        if (d - beta - rho >= 0.5f * float(kPi)) continue;  // behind every texel's horizon
-        const float dmin = std::max(0.0f, d - beta - rho);
-        const bool near_horizon = std::fabs(d - 0.5f * float(kPi)) <= beta + rho;
-        const float length_scale = near_horizon ? std::min(ls.horizon_scale, std::max(ls.scale, dmin))
-                                                : std::max(ls.scale, dmin);
-        if (lvl == 0 || beta <= eps * length_scale) {
-            accepted.push_back((uint32_t(lvl) << 26) | uint32_t(b));
-        } else {
-            const int cl = lvl - 1;
-            for (int dy = 0; dy < 2; ++dy)
-                for (int dx = 0; dx < 2; ++dx) stack.push_back((cl << 26) | ((2 * y + dy) << 13) | (2 * x + dx));
+        const BinNode* nodes = L.nodes.data();
+        next.clear();
+        for (const uint32_t b : cur) {
+            const BinNode& nd = nodes[b];
+            const float beta = nd.radius;
+            if (beta < 0.0f) continue;  // no radiance
+            const float d = fast_acos(c.x * nd.px + c.y * nd.py + c.z * nd.pz);
+            if (d - beta - rho >= 0.5f * float(kPi)) continue;  // behind every texel's horizon
+            const float dmin = std::max(0.0f, d - beta - rho);
+            const bool near_horizon = std::fabs(d - 0.5f * float(kPi)) <= beta + rho;
+            const bool small = beta <= eps * std::max(scale, dmin) && (!near_horizon || beta <= horizon_radius);
+            if (lvl == 0 || small) {
+                accepted.push_back(&nd);
+            } else {
+                const uint32_t y = b / uint32_t(L.w), x = b - y * uint32_t(L.w), w2 = 2 * uint32_t(L.w);
+                const uint32_t c0 = 2 * y * w2 + 2 * x;
+                next.insert(next.end(), {c0, c0 + 1, c0 + w2, c0 + w2 + 1});
+            }
         }
+        std::swap(cur, next);
     }
-    // The accepted bins as structure-of-arrays, padded to whole lanes with
-    // bins of no power and no solid angle (the solid-angle centroids serve
-    // the denominator alone).
     const size_t count = accepted.size();
     const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
-    for (int a : {0, 1, 2, 6, 7, 8}) acc[a].assign(padded, 0.0f);
-    for (int a : {3, 4, 5, 9}) acc[a].assign(centroids ? padded : 0, 0.0f);
-    for (size_t k = 0; k < count; ++k) {
-        const BinLevel& L = tree.levels[accepted[k] >> 26];
-        const size_t b = accepted[k] & ((1u << 26) - 1);
-        acc[0][k] = L.px[b]; acc[1][k] = L.py[b]; acc[2][k] = L.pz[b];
-        acc[6][k] = L.power[0][b]; acc[7][k] = L.power[1][b]; acc[8][k] = L.power[2][b];
+    for (auto& a : acc) a.resize(padded);
+    for (size_t i = 0; i < count; ++i) {
+        const BinNode& nd = *accepted[i];
+        acc[kernel::kPx][i] = nd.px, acc[kernel::kPy][i] = nd.py, acc[kernel::kPz][i] = nd.pz;
+        acc[kernel::kG][i] = nd.g;
+        for (int ch = 0; ch < 3; ++ch) acc[kernel::kP0 + ch][i] = nd.power[ch];
+        for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k][i] = nd.cov[k];
     }
-    if (centroids)
-        for (size_t k = 0; k < count; ++k) {
-            const BinLevel& L = tree.levels[accepted[k] >> 26];
-            const size_t b = accepted[k] & ((1u << 26) - 1);
-            acc[3][k] = L.cx[b]; acc[4][k] = L.cy[b]; acc[5][k] = L.cz[b];
-            acc[9][k] = L.omega[b];
-        }
+    for (auto& a : acc) std::fill(a.begin() + count, a.end(), 0.0f);
     return count;
-}
-
-BinSoA soa(std::vector<float> (&acc)[10]) {
-    return {acc[0].data(), acc[1].data(), acc[2].data(), acc[3].data(), acc[4].data(),
-            acc[5].data(), acc[6].data(), acc[7].data(), acc[8].data(), acc[9].data()};
-}
-
-// kernel_sums for K lobes at once (1 <= K <= 3) on the same bins: the
-// distance is computed once, and one division per bin serves every lobe:
-// K_k = c / t_k^2 = (c / prod_j t_j^2) * prod_{j != k} t_j^2. The caller keeps
-// prod_j (2 a2_j)^2 (its smallest value) far above float's least normal.
-// The kernels of up to four lobes (a2s_j = a2_j / s) at one half squared distance x,
-// each up to the constant factor s^2 (which cancels in the ratio of sums):
-// with u_k = t_k / s, one division for all, K_k s^2 = (c / prod_j u_j^2) *
-// prod_{j != k} u_j^2. s = 2 min_k a2_k, the least t, keeps every u >= 1.
-template <int K>
-inline void group_kernels(float x, const float (&a2s)[4], float inv_s, float (&k)[4]) {
-    const float c = 1.0f - x, two_minus_x = 1.0f + c, xs = x * inv_s;
-    float q[4];
-    for (int j = 0; j < K; ++j) {
-        const float u = xs + a2s[j] * two_minus_x;  // (x + a2_j (2 - x)) / s
-        q[j] = u * u;
-    }
-    if constexpr (K == 1) {
-        k[0] = c > 0.0f ? c / q[0] : 0.0f;
-    } else if constexpr (K == 2) {
-        const float inv = c > 0.0f ? c / (q[0] * q[1]) : 0.0f;
-        k[0] = inv * q[1];
-        k[1] = inv * q[0];
-    } else if constexpr (K == 3) {
-        const float q01 = q[0] * q[1];
-        const float inv = c > 0.0f ? c / (q01 * q[2]) : 0.0f;
-        k[0] = inv * (q[1] * q[2]);
-        k[1] = inv * (q[0] * q[2]);
-        k[2] = inv * q01;
-    } else {
-        const float q01 = q[0] * q[1], q23 = q[2] * q[3];
-        const float inv = c > 0.0f ? c / (q01 * q23) : 0.0f;
-        const float i01 = inv * q01, i23 = inv * q23;
-        k[0] = i23 * q[1];
-        k[1] = i23 * q[0];
-        k[2] = i01 * q[3];
-        k[3] = i01 * q[2];
-    }
-}
-
-// kernel_sums for K lobes at once (1 <= K <= 4) on the same bins: the
-// distance is computed once and one division per bin serves every lobe.
-// (Accumulators named one by one: the lane loop then vectorises as
-// kernel_sums' does.)
-template <int K, bool kWithDen>
-void kernel_sums_group(const BinSoA& b, size_t count, const float (&a2)[4], float inv_s, const Vec3& n,
-                       double num[4][3], double den[4]) {
-    for (int k = 0; k < 4; ++k) num[k][0] = num[k][1] = num[k][2] = den[k] = 0.0;
-    constexpr size_t kBlock = 512;
-    for (size_t s = 0; s < count; s += kBlock) {
-        const size_t e = std::min(count, s + kBlock);
-        float a0[kLanes] = {}, a1[kLanes] = {}, a2s[kLanes] = {}, w0[kLanes] = {};
-        float b0[kLanes] = {}, b1[kLanes] = {}, b2[kLanes] = {}, w1[kLanes] = {};
-        float c0[kLanes] = {}, c1[kLanes] = {}, c2[kLanes] = {}, w2[kLanes] = {};
-        float d0[kLanes] = {}, d1[kLanes] = {}, d2[kLanes] = {}, w3[kLanes] = {};
-        for (size_t p = s; p < e; p += kLanes)
-            for (size_t l = 0; l < kLanes; ++l) {
-                const size_t q = p + l;
-                const float dx = n.x - b.px[q], dy = n.y - b.py[q], dz = n.z - b.pz[q];
-                float k[4];
-                group_kernels<K>(0.5f * (dx * dx + dy * dy + dz * dz), a2, inv_s, k);
-                const float p0 = b.p0[q], p1 = b.p1[q], p2 = b.p2[q];
-                a0[l] += k[0] * p0; a1[l] += k[0] * p1; a2s[l] += k[0] * p2;
-                if constexpr (K >= 2) { b0[l] += k[1] * p0; b1[l] += k[1] * p1; b2[l] += k[1] * p2; }
-                if constexpr (K >= 3) { c0[l] += k[2] * p0; c1[l] += k[2] * p1; c2[l] += k[2] * p2; }
-                if constexpr (K >= 4) { d0[l] += k[3] * p0; d1[l] += k[3] * p1; d2[l] += k[3] * p2; }
-                if constexpr (kWithDen) {
-                    const float ex = n.x - b.cx[q], ey = n.y - b.cy[q], ez = n.z - b.cz[q];
-                    float m[4];
-                    group_kernels<K>(0.5f * (ex * ex + ey * ey + ez * ez), a2, inv_s, m);
-                    const float om = b.om[q];
-                    w0[l] += m[0] * om;
-                    if constexpr (K >= 2) w1[l] += m[1] * om;
-                    if constexpr (K >= 3) w2[l] += m[2] * om;
-                    if constexpr (K >= 4) w3[l] += m[3] * om;
-                }
-            }
-        const float* sums[4][4] = {{a0, a1, a2s, w0}, {b0, b1, b2, w1}, {c0, c1, c2, w2}, {d0, d1, d2, w3}};
-        for (int k = 0; k < K; ++k) {
-            float t[4] = {0, 0, 0, 0};
-            for (int m = 0; m < 4; ++m)
-                for (size_t l = 0; l < kLanes; ++l) t[m] += sums[k][m][l];
-            for (int ch = 0; ch < 3; ++ch) num[k][ch] += t[ch];
-            den[k] += t[3];
-        }
-    }
-}
-
-template <int K>
-void group_sums(bool with_den, const BinSoA& b, size_t count, const float (&a2)[4], float inv_s, const Vec3& n,
-                double num[4][3], double den[4]) {
-    if (with_den) kernel_sums_group<K, true>(b, count, a2, inv_s, n, num, den);
-    else kernel_sums_group<K, false>(b, count, a2, inv_s, n, num, den);
 }
 
 }  // namespace
 
-double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q,
-                             std::vector<float>* normaliser) {
-    const size_t texels = size_t(6) * dst.size * dst.size;
-    const bool given = normaliser && normaliser->size() == texels;
-    if (normaliser && !given) normaliser->assign(texels, 0.0f);
-    const float alpha = float(roughness * roughness), a2 = alpha * alpha;
-    const LobeScales ls = lobe_scales(roughness);
-    const float eps = float(q.eps);
-    const int n = dst.size, T = std::max(1, std::min(q.tile, n));
-    const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
-    std::vector<double> used(tiles, 0.0);
-    parallel_for(0, tiles, [&](int tile) {
-        const Tile t = make_tile(tile, n, T);
-        thread_local std::vector<float> acc[10];
-        used[tile] = double(gather_bins(tree, t, ls, eps, !given, acc));
-        const size_t padded = acc[0].size();
-        const BinSoA bins = soa(acc);
-        size_t k = 0;
-        for (int j = t.j0; j < t.j1; ++j)
-            for (int i = t.i0; i < t.i1; ++i, ++k) {
-                double num[3], den;
-                const size_t idx = (size_t(t.face) * n + j) * n + i;
-                // The denominator is geometry alone (bin centroids and solid
-                // angles, the same bins for any source): a cached one is used
-                // as is, a computed one is rounded to float as the cache keeps
-                // it, so warm and cold bakes give the same bits.
-                if (given) {
-                    kernel_sums<false>(bins, padded, a2, t.dirs[k], num, den);
-                    den = (*normaliser)[idx];
-                } else {
-                    kernel_sums<true>(bins, padded, a2, t.dirs[k], num, den);
-                    den = double(float(den));
-                    if (normaliser) (*normaliser)[idx] = float(den);
-                }
-                float* o = dst.at(t.face, i, j);
-                for (int ch = 0; ch < 3; ++ch) o[ch] = den > 0.0 ? float(num[ch] / den) : 0.0f;
-            }
-    });
-    double total = 0.0;
-    for (double u : used) total += u;
-    return total / tiles;
+double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q) {
+    std::vector<SpecularGroupTarget> one{{&dst, roughness}};
+    return specular_hierarchical_group(one, tree, q);
 }
 
-// The scaled factors u_k = t_k / s lie in [1, (1 + 2 a2) / s] where the kernel
-// is not 0 (c > 0): their product over the group must stay finite in float.
 bool specular_group_safe(const std::vector<double>& roughness) {
-    if (roughness.empty()) return true;
-    if (roughness.size() > 4) return false;
-    double a2_min = 1.0;
-    for (double r : roughness) {
+    if (roughness.size() > size_t(kernel::kMaxLobes)) return false;
+    for (double r : roughness)
         if (!(r > 0.0) || r > 1.0) return false;
-        const double alpha = float(r * r);
-        a2_min = std::min(a2_min, alpha * alpha);
-    }
-    const double s = 2.0 * a2_min, u_max = (1.0 + 2.0) / s;
-    return std::pow(u_max * u_max, double(roughness.size())) < 1e36;
+    return true;
 }
 
 double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, const BinTree& tree,
@@ -430,69 +327,63 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
     std::vector<double> rough;
     for (const SpecularGroupTarget& g : targets) {
         if (g.dst->size != n) throw std::invalid_argument("a specular group needs one face size");
-        if (!(g.roughness > 0.0)) throw std::invalid_argument("a specular group needs roughness > 0");
         rough.push_back(g.roughness);
     }
     if (!specular_group_safe(rough))
-        throw std::invalid_argument("a specular group takes at most 4 levels of roughness above about 0.06 "
-                                    "(3 above 0.03)");
+        throw std::invalid_argument("a specular group takes 1 to 4 levels of roughness in (0, 1]");
     const int K = int(targets.size());
-    const size_t texels = size_t(6) * n * n;
-    std::vector<char> given(K);
-    bool with_den = false;
+    // Per lobe: alpha^2 for the kernel, and the exact normaliser (the
+    // integral of K over the sphere in closed form, in the units the kernel
+    // uses, without the factor 4 a^2 / pi).
+    float a2[kernel::kMaxLobes] = {0, 0, 0, 0};
+    double inv_z[kernel::kMaxLobes] = {0, 0, 0, 0};
+    const double eps_d = hierarchical_level_eps(q, n);
+    // One traversal for all: the narrowest lobe's length scale and the
+    // strictest horizon rule among them (bins at least as fine as each
+    // lobe alone would use).
+    double r_min = 1.0, horizon = kPi;
     for (int k = 0; k < K; ++k) {
-        SpecularGroupTarget& g = targets[k];
-        given[k] = g.normaliser && g.normaliser->size() == texels;
-        if (!given[k]) {
-            with_den = true;
-            if (g.normaliser) g.normaliser->assign(texels, 0.0f);
-        }
+        const double r = rough[k], alpha = r * r, a2d = alpha * alpha;
+        const float af = float(alpha);
+        a2[k] = af * af;
+        inv_z[k] = 4.0 * a2d / (kPi * ggx::prefilter_normalizer(alpha));
+        r_min = std::min(r_min, r);
+        horizon = std::min(horizon, hierarchical_horizon_radius(r, n, q));
     }
-    // One traversal for all: the narrowest lobe's bins.
-    const double r_min = *std::min_element(rough.begin(), rough.end());
-    const LobeScales ls = lobe_scales(r_min);
-    float a2[4] = {0, 0, 0, 0};
-    float a2_min = 1.0f;
-    for (int k = 0; k < K; ++k) {
-        const float alpha = float(rough[k] * rough[k]);
-        a2[k] = alpha * alpha;
-        a2_min = std::min(a2_min, a2[k]);
-    }
-    const float inv_s = 1.0f / (2.0f * a2_min);
-    for (int k = 0; k < K; ++k) a2[k] *= inv_s;  // the kernels take a2 / s
-    const int T = std::max(1, std::min(q.tile, n));
+    // The lobe's angular length scale in w: 2 alpha for narrow lobes, about
+    // one radian (the cosine's) as alpha -> 1.
+    const float alpha_min = float(r_min * r_min);
+    const float scale = 2.0f * alpha_min / (1.0f + alpha_min);
+    const float eps = float(eps_d);
+    // K = D(h) max(0, n.w) has a kink at n's horizon with slope D(45 deg),
+    // where no rule from a bin's moments is exact (a bin across it loses the
+    // part of its radiance behind; by Jensen's inequality every such rule
+    // comes out low). Relative to the kernel's integral Z that slope sets how
+    // small bins that may straddle a horizon must be, in proportion to eps:
+    // radius <= eps horizon / sqrt(D45 / Z) (hierarchical_horizon_radius).
+    const float horizon_radius = float(horizon);
+    const kernel::SumsFn sums = kernel_fn();
+    // Tiles of at most a quarter of the face: a tile as wide as the face
+    // would see every bin as near and take them all at the finest level.
+    const int T = std::max(1, std::min(q.tile, n / 4));
     const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
     std::vector<double> used(tiles, 0.0);
     parallel_for(0, tiles, [&](int tile) {
         const Tile t = make_tile(tile, n, T);
-        thread_local std::vector<float> acc[10];
-        used[tile] = double(gather_bins(tree, t, ls, float(q.eps), with_den, acc));
+        thread_local std::vector<float> acc[kFields];
+        used[tile] = double(gather_bins(tree, t, scale, eps, horizon_radius, acc));
         const size_t padded = acc[0].size();
-        const BinSoA bins = soa(acc);
+        const float* fields[kFields];
+        for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
         size_t k = 0;
         for (int j = t.j0; j < t.j1; ++j)
             for (int i = t.i0; i < t.i1; ++i, ++k) {
-                double num[4][3], den[4];
-                switch (K) {
-                    case 1: group_sums<1>(with_den, bins, padded, a2, inv_s, t.dirs[k], num, den); break;
-                    case 2: group_sums<2>(with_den, bins, padded, a2, inv_s, t.dirs[k], num, den); break;
-                    case 3: group_sums<3>(with_den, bins, padded, a2, inv_s, t.dirs[k], num, den); break;
-                    default: group_sums<4>(with_den, bins, padded, a2, inv_s, t.dirs[k], num, den); break;
-                }
-                const size_t idx = (size_t(t.face) * n + j) * n + i;
+                double num[kernel::kMaxLobes][3];
+                const Vec3& d = t.dirs[k];
+                sums(fields, padded, K, a2, d.x, d.y, d.z, num);
                 for (int g = 0; g < K; ++g) {
-                    SpecularGroupTarget& tg = targets[g];
-                    // As specular_hierarchical: a computed denominator is
-                    // rounded to float as the cache keeps it.
-                    double d;
-                    if (given[g]) {
-                        d = (*tg.normaliser)[idx];
-                    } else {
-                        d = double(float(den[g]));
-                        if (tg.normaliser) (*tg.normaliser)[idx] = float(d);
-                    }
-                    float* o = tg.dst->at(t.face, i, j);
-                    for (int ch = 0; ch < 3; ++ch) o[ch] = d > 0.0 ? float(num[g][ch] / d) : 0.0f;
+                    float* o = targets[g].dst->at(t.face, i, j);
+                    for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[g][ch] * inv_z[g]);
                 }
             }
     });

@@ -64,4 +64,88 @@ std::vector<OverlayPiece> overlay_partitions(int n_a, int n_b) {
     return pieces;
 }
 
+namespace {
+
+// 4-point Gauss-Legendre on [-1, 1].
+constexpr double kGlx[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
+constexpr double kGlw[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
+
+// The hats of `texels` centres cut by `bins` cells on [0, 1] (periodic or
+// clamped), each piece integrated by `fn(x, hat, weight, w[6])` at Gauss
+// points x in [0, 1] of the axis.
+template <typename Fn>
+std::vector<HatPiece> hat_pieces(int texels, int bins, bool periodic, Fn&& fn) {
+    // Breakpoints in integer units of 1 / (2 texels bins): centres (2k+1) bins, edges 2 texels b.
+    const long long unit = 2LL * texels * bins;
+    std::vector<long long> pts;
+    for (int k = 0; k < texels; ++k) pts.push_back((2LL * k + 1) * bins);
+    for (int b = 0; b <= bins; ++b) pts.push_back(2LL * texels * b);
+    std::sort(pts.begin(), pts.end());
+    pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
+    std::vector<HatPiece> out;
+    for (size_t k = 0; k + 1 < pts.size(); ++k) {
+        const long long a = pts[k], e = pts[k + 1];
+        const long long mid2 = a + e;  // twice the midpoint
+        const int bin = int(std::min<long long>(bins - 1, mid2 / (2 * 2LL * texels)));
+        // Left centre: the largest k with (2k+1) bins <= midpoint.
+        const long long num = mid2 - 2LL * bins;  // 2 (mid - bins)
+        const long long left = num < 0 ? -1 : num / (4LL * bins);
+        int tl = int(left), tr = int(left + 1);
+        if (periodic) {
+            tl = (tl % texels + texels) % texels;
+            tr = tr % texels;
+        } else {
+            tl = std::clamp(tl, 0, texels - 1);
+            tr = std::clamp(tr, 0, texels - 1);
+        }
+        HatPiece pl{tl, bin, {0, 0, 0, 0, 0, 0}}, pr{tr, bin, {0, 0, 0, 0, 0, 0}};
+        // Gauss points on sub-pieces of at most 1/64 of the axis (accuracy on wide bins).
+        const double x0 = double(a) / unit, x1 = double(e) / unit;
+        const int sub = std::max(1, int(std::ceil((x1 - x0) * 64.0)));
+        for (int s = 0; s < sub; ++s) {
+            const double s0 = x0 + (x1 - x0) * s / sub, s1 = x0 + (x1 - x0) * (s + 1) / sub;
+            for (int g = 0; g < 4; ++g) {
+                const double x = 0.5 * (s0 + s1) + 0.5 * (s1 - s0) * kGlx[g];
+                const double wt = 0.5 * (s1 - s0) * kGlw[g];
+                // Fraction toward the right centre (left + 1.5) / texels.
+                const double f = std::clamp(x * texels - (double(left) + 0.5), 0.0, 1.0);
+                fn(x, 1.0 - f, wt, pl.w);
+                fn(x, f, wt, pr.w);
+            }
+        }
+        out.push_back(pl);
+        out.push_back(pr);
+    }
+    std::stable_sort(out.begin(), out.end(), [](const HatPiece& p, const HatPiece& q) {
+        return p.bin != q.bin ? p.bin < q.bin : p.texel < q.texel;
+    });
+    std::vector<HatPiece> merged;
+    for (const HatPiece& p : out) {
+        if (!merged.empty() && merged.back().bin == p.bin && merged.back().texel == p.texel) {
+            for (int k = 0; k < 6; ++k) merged.back().w[k] += p.w[k];
+        } else {
+            merged.push_back(p);
+        }
+    }
+    return merged;
+}
+
+}  // namespace
+
+std::vector<HatPiece> hat_pieces_lon(int texels, int bins) {
+    return hat_pieces(texels, bins, true, [](double u, double hat, double wt, double w[6]) {
+        const double phi = (0.5 - u) * 2.0 * kPi, c = std::cos(phi), s = std::sin(phi);
+        const double m = hat * wt * 2.0 * kPi;  // dphi = 2 pi du
+        w[0] += m, w[1] += m * c, w[2] += m * s, w[3] += m * c * c, w[4] += m * s * s, w[5] += m * s * c;
+    });
+}
+
+std::vector<HatPiece> hat_pieces_lat(int texels, int bins) {
+    return hat_pieces(texels, bins, false, [](double t, double hat, double wt, double w[6]) {
+        const double lat = (0.5 - t) * kPi, s = std::sin(lat), c = std::cos(lat);
+        const double m = hat * wt * kPi * c;  // ds = pi cos(lat) dt
+        w[0] += m, w[1] += m * s, w[2] += m * s * s, w[3] += m * c, w[4] += m * s * c;
+    });
+}
+
 }  // namespace iblbake

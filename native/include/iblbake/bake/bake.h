@@ -85,7 +85,6 @@ struct ExtraSpecularLevel {
     Cubemap cube;
     size_t samples_per_texel = 0;
     std::string method;
-    bool normaliser_from_cache = false;
 };
 
 struct BakeResult {
@@ -106,9 +105,9 @@ struct BakeResult {
     std::vector<size_t> samples_per_texel;  // per specular level (bins per texel, hierarchical)
     std::vector<std::string> specular_methods;
     bool lut_from_cache = false;
-    // Per specular level: its normaliser (hierarchical sums' denominator)
-    // came from the cache.
-    std::vector<int> specular_normaliser_from_cache;
+    // The instruction set the hierarchical specular sum ran on (ibl/specular.h's
+    // specular_kernel_isa()); empty when no level used it.
+    std::string specular_kernel;
     int integration_width = 0, integration_height = 0;  // the grid the integrals ran on
     // What options.extra asked for (engine presets).
     std::vector<ExtraSpecularLevel> extra_specular;
@@ -132,24 +131,40 @@ using ProgressFn = std::function<bool(const std::string& stage, double fraction)
 
 class LutCache;
 
+// Receives each output as soon as the bake has made it ("irradiance",
+// "specular_<m>", the LUT), final (scaled back, never changed again), so
+// that writing it (bake/write.h's BakeWriter) overlaps the rest of the bake.
+// The references stay valid until wait() returns; the bake calls wait()
+// before it returns or throws.
+class OutputSink {
+public:
+    virtual ~OutputSink() = default;
+    virtual void cube(const std::string& stem, const Cubemap& cube) = 0;
+    virtual void lut(const Image& lut) = 0;
+    virtual void wait() = 0;  // everything handed over is done with; rethrows its first failure
+};
+
 // The whole bake in memory. `source` is a Blender lat-long image; it is
 // cleaned in place (SPEC.md section 1). Every output is checked to be
 // finite before the bake returns: a non-finite value (a source changed
 // while it was read, a damaged table) makes it throw std::runtime_error
 // instead of reporting success. With a `lut_cache`, the LUT is read
-// from it when present and stored into it when made.
+// from it when present and stored into it when made. With a `sink`, every
+// SPEC output is handed to it as soon as it is made (the extra outputs
+// stay in the result, for the exports).
 BakeResult compute_bake(Image source, const BakeOptions& options, const ProgressFn& progress = {},
-                        LutCache* lut_cache = nullptr);
+                        LutCache* lut_cache = nullptr, OutputSink* sink = nullptr);
 // The same bake of pixels owned elsewhere (a numpy array): a clean source is
 // read where it lies, one with bad or overflowing values is copied first.
 BakeResult compute_bake_view(ImageView source, const BakeOptions& options, const ProgressFn& progress = {},
-                             LutCache* lut_cache = nullptr);
+                             LutCache* lut_cache = nullptr, OutputSink* sink = nullptr);
 
 // The bake of a constant world of radiance `rgb` (a plain-colour world), in
 // closed form: Irr = Pre = rgb everywhere, SH9 = rgb * 2 sqrt(pi) in L_00
 // alone. The LUT is made (or read from the cache) as in compute_bake.
 BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOptions& options,
-                                 const ProgressFn& progress = {}, LutCache* lut_cache = nullptr);
+                                 const ProgressFn& progress = {}, LutCache* lut_cache = nullptr,
+                                 OutputSink* sink = nullptr);
 
 // Just the LUT (it depends on nothing but its own settings).
 Image compute_lut(int size, LutModel model, const LutQuality& q = {}, int threads = 0);

@@ -1,6 +1,5 @@
 // A cache of tables that depend on settings alone, made once and reused by
-// every later bake (across scenes and processes): BRDF LUTs, and the
-// hierarchical specular sums' normalisers (ibl/specular.h).
+// every later bake (across scenes and processes): BRDF LUTs.
 #pragma once
 #include <filesystem>
 #include <optional>
@@ -19,20 +18,11 @@ constexpr int kLutAlgorithmVersion = 2;
 // The cache key: every setting that changes a texel.
 std::string lut_cache_key(int size, LutModel model, const LutQuality& q);
 
-// Bumped whenever the specular tree walk or kernel changes.
-constexpr int kSpecularNormaliserVersion = 1;
-// Key of one level's normaliser: everything its bins and kernel depend on.
-std::string specular_normaliser_key(int face_size, double roughness, double eps, int tile, int finest_bins);
-
 class LutCache {
 public:
     virtual ~LutCache() = default;
     virtual std::optional<Image> load(const std::string& key) = 0;
     virtual void store(const std::string& key, const Image& lut) = 0;
-    // Plain float tables, stored packed three to a pixel; a stored table of
-    // another length is a miss.
-    std::optional<std::vector<float>> load_floats(const std::string& key, size_t count);
-    void store_floats(const std::string& key, const std::vector<float>& values);
 };
 
 // Raw float files (<key>.lut) in a folder, read back in one call; writes are

@@ -1,6 +1,7 @@
 // Writing a bake: files and manifest.json of SPEC.md section 4, atomically.
 #pragma once
 #include <filesystem>
+#include <memory>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -47,11 +48,41 @@ nlohmann::json make_manifest(const BakeResult& r, const BakeOptions& bo, const W
 // preview.png of a bake (image/preview.h), 8-bit sRGB.
 void write_preview(const std::string& path, const BakeResult& r);
 
-// Write every output and manifest.json into `outdir`, atomically (io/output_dir.h).
-// The manifest's `files` records each file's size and sha256. `progress`
-// ("writing", 1.0) is polled between bands of rows, from any thread
-// (one call at a time); false, or an exception from it, cancels the write
-// and leaves `outdir` as it was. Returns the manifest.
+// Writes a bake's files as they come, each on its own task, in parallel
+// with each other and with the rest of the bake (an OutputSink for
+// compute_bake), into a staging folder beside `outdir` (io/output_dir.h);
+// finish() writes what needs the whole result (preview.png, the engine
+// presets' files), lists every file with its size and sha256 in
+// manifest.json and swaps the folder in. Destroyed without finish() (a
+// failed or cancelled bake), it stops its writes and removes what it wrote.
+// `progress` ("writing", 1.0) is polled between bands of rows once the bake
+// is computed (in finish()), from any thread, one call at a time; false, or
+// an exception from it, cancels the write and leaves `outdir` as it was.
+class BakeWriter : public OutputSink {
+public:
+    BakeWriter(const std::filesystem::path& outdir, const WriteOptions& wo, const ProgressFn& progress = {});
+    ~BakeWriter() override;
+    BakeWriter(const BakeWriter&) = delete;
+    BakeWriter& operator=(const BakeWriter&) = delete;
+    void cube(const std::string& stem, const Cubemap& cube) override;
+    void lut(const Image& lut) override;
+    void wait() override;
+    // The bake is computed: writes poll `progress` from now on (finish() says so itself).
+    void computed();
+    // Waits for the files, writes the rest and the manifest (its "write"
+    // timing: what the writing added to the bake's wall time once the
+    // outputs were computed) and commits. `bo` must be the options the bake
+    // ran with (with_exports). Returns the manifest.
+    nlohmann::json finish(const BakeResult& r, const BakeOptions& bo, const SourceInfo& src);
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+// Write every output and manifest.json into `outdir`, atomically (a
+// BakeWriter handed everything at once). The manifest's `files` records
+// each file's size and sha256; `progress` as BakeWriter's. Returns the manifest.
 nlohmann::json write_bake(const BakeResult& r, const std::filesystem::path& outdir, const BakeOptions& bo,
                           const WriteOptions& wo, const SourceInfo& src, const ProgressFn& progress = {});
 

@@ -1,6 +1,8 @@
-// A pyramid of exact lat-long bins (ibl/source.h) for hierarchical kernel
-// sums: level 0 is the finest grid (w x w/2, w a power of two), each coarser
-// level sums 2 x 2 bins exactly. Stored as floats, structure-of-arrays.
+// A pyramid of exact lat-long bins (ibl/source.h: integrals of SPEC's
+// bilinear L) for hierarchical kernel sums: level 0 is the finest grid
+// (w x w/2, w a power of two), each coarser level sums 2 x 2 bins exactly.
+// Each bin keeps the zeroth, first and second moments of its radiance, as
+// floats, structure-of-arrays.
 #pragma once
 #include <vector>
 
@@ -9,19 +11,27 @@
 
 namespace iblbake {
 
+// One bin as the hierarchical sum reads it, in one cache line.
+struct alignas(64) BinNode {
+    // Where the bin's radiance sits: m = integral of L w dOmega / integral of
+    // L dOmega (channel sums), kept as its unit direction p and g = 1 - |m|,
+    // so that 1 - n.m = g + (1 - g) |n - p|^2 / 2 without cancellation.
+    float px, py, pz, g;
+    // Power per channel: integral of L_c dOmega.
+    float power[3];
+    // Covariance of w under the bin's radiance (channel sums), engine space:
+    // xx, yy, zz, xy, xz, yz. n^T C n is the variance of n.w over the bin.
+    float cov[6];
+    // Angular radius about p: the largest angle from p to the bin's corners
+    // and edge midpoints (radians); negative for a bin with no radiance.
+    float radius;
+    float unused[2];
+};
+static_assert(sizeof(BinNode) == 64, "a bin is one cache line");
+
 struct BinLevel {
     int w = 0, h = 0;
-    // Power centroid (unit): where the bin's radiance sits, so a bright
-    // texel inside a coarse bin is placed right to first order.
-    std::vector<float> px, py, pz;
-    // Solid-angle centroid (unit).
-    std::vector<float> cx, cy, cz;
-    // Power per channel and solid angle, each scaled by |first moment| /
-    // zeroth moment (exact for kernels linear in n.w at the centroid).
-    std::vector<float> power[3], omega;
-    // Angular radius: the largest angle from the solid-angle centroid to the
-    // bin's corners and edge midpoints (radians).
-    std::vector<float> radius;
+    std::vector<BinNode> nodes;
     size_t index(int x, int y) const { return size_t(y) * w + x; }
 };
 

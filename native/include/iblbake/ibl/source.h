@@ -62,8 +62,9 @@ Image remap_latlong(ImageView img, const std::array<double, 9>& a, const std::ar
 // (radiance times solid angle) per channel.
 struct RadiancePoint {
     float dir[3];       // centre direction
-    float mean_dir[3];  // (integral of w over the texel) / solid angle: |mean_dir| < 1
+    float mean_dir[3];  // (integral of w over the texel's hat) / its integral: |mean_dir| < 1
     float power[3];
+    float cov[6];       // covariance of w over the texel's hat (engine space: xx, yy, zz, xy, xz, yz)
 };
 
 // The split L = rest + hot. Every texel whose largest channel m exceeds the
@@ -88,12 +89,14 @@ HotSplit split_hot(ImageView img, double relative_threshold, int max_hot);
 Image rest_image(ImageView img, const HotSplit& split);
 
 // An energy-exact reduction of a lat-long image to a grid of bw x bh bins
-// overlaid on its texels (texels are split where bins cut them, so any source
-// size works, 1 x 1 included). Radiance is texel-constant; every integral is
-// exact (math/latlong.h).
+// overlaid on it (any sizes, 1 x 1 included): every bin holds the exact
+// integrals of SPEC.md's L, the bilinear reconstruction, over its rectangle
+// (sums of texel values times products of hat integrals, math/latlong.h).
 struct Bin {
     double vector[3][3];  // per channel: integral of L_c w dOmega (engine space)
     double power[3];      // per channel: integral of L_c dOmega
+    // Integral of (L_r + L_g + L_b) w w^T dOmega (engine space): xx, yy, zz, xy, xz, yz.
+    double second[6];
     // (A bin's geometry, its solid angle and first moment, is that of its
     // rectangle alone: rect_solid_angle and rect_moment, math/latlong.h.)
 };
@@ -110,9 +113,8 @@ public:
 private:
     ImageView img_;
     int bw_, bh_;
-    std::vector<OverlayPiece> cols_, rows_;
-    std::vector<LonIntegrals> lon_;
-    std::vector<size_t> first_;
+    std::vector<HatPiece> cols_, rows_;
+    std::vector<size_t> first_;  // first row piece of each bin row
 };
 // o += b, every integral.
 void add_bins(Bin& o, const Bin& b);
@@ -123,18 +125,6 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh);
 std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int bw, int bh);
 // Takes the hot texels' gifts out of bw x bh bins of an img_w x img_h image.
 void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, const HotSplit& split);
-
-// "Vector power" of the bins, per channel c: V_c = integral of L_c w dOmega.
-// For a normal n that sees a whole bin from its lit side,
-// integral of L_c max(0, n.w) dOmega = n.V_c exactly, which makes the cloud an
-// exact cosine integrator except for the few bins that straddle n's horizon.
-// Stored structure-of-arrays for the hot loop.
-struct VectorCloud {
-    std::vector<float> x[3], y[3], z[3];
-    size_t size() const { return x[0].size(); }
-    void add(const float dir[3], const float power[3]);
-};
-VectorCloud vector_cloud(const std::vector<Bin>& bins);
 
 // Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5):
 // every texel's exact basis integral (texel-constant radiance), in double.

@@ -1,6 +1,7 @@
 // GGX prefiltered specular radiance (SPEC.md section 3), N = V = R = n:
 //   Pre(n, r) = int L(w) D(h) max(0, n.w) dw / int D(h) max(0, n.w) dw.
 #pragma once
+#include <string>
 #include <vector>
 
 #include "iblbake/ibl/bin_tree.h"
@@ -42,48 +43,60 @@ size_t specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vect
                         double roughness, const SpecularQuality& q);
 
 struct HierarchicalQuality {
-    double eps = 0.25;  // a bin is used whole when its radius <= eps * the kernel's length scale there
+    double eps = 0.4;  // a bin is used whole when its radius <= eps * the kernel's length scale there
     int tile = 8;       // output texels share one traversal per tile x tile block
+    double finest_eps = 0.35;  // the finest bins' radius <= finest_eps * 2 alpha of the narrowest lobe
+    double horizon = 0.05;     // bins that may straddle a texel's horizon: radius <= eps horizon / sqrt(D(45 deg) / Z)
 };
 
 // Level for roughness r > 0 by a hierarchical (Barnes-Hut) kernel sum over a
 // bin pyramid: for each tile of output texels, bins are taken whole where
 // they are small against the kernel's local length scale, max(2 alpha, the
-// bin's least distance to the tile), else split down to the finest level:
-//   Pre(n) = sum_b P_b K(n.p_b) / sum_b Omega_b K(n.c_b),
-// p_b the bin's power centroid, c_b its solid-angle centroid. The result is
-// a deterministic quadrature of SPEC.md's integral whose error is set by eps
-// alone (second order in eps), with no sampling noise and no clamping.
+// bin's least distance to the tile), else split down to the finest level.
+// Each bin is integrated by a second-order rule from its radiance's moments
+// (mean m and covariance C of w):
+//   Pre(n) = sum_b P_b [k(n.m_b) + k''(n.m_b) n^T C_b n / 2] / Z,
+// with Z the kernel's integral in closed form. The result is a deterministic
+// quadrature of SPEC.md's integral over the bilinear L whose error is set
+// by eps, with no sampling noise and no clamping.
 // Returns the mean number of bins per texel.
-// The sum is a ratio: sum K power over sum K solid angle on the same bins, so
-// a constant world comes out exact. The denominator depends on geometry alone
-// (the bins' rectangles, which the tree takes from exact integrals, never
-// from the source), so it can be kept and reused by any later bake with the
-// same face size, roughness, eps, tile and finest bins: with `normaliser`
-// holding 6 n^2 values (face, row, column order) they are used and only the
-// numerator is summed (about 40 % less work); otherwise, given an empty
-// vector, it is filled.
-double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {},
-                             std::vector<float>* normaliser = nullptr);
+double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {});
 
 // Up to four levels of one face size in one pass (engine presets bake levels
-// at nearby roughness values): one traversal, by the narrowest lobe among them
-// (a finer set of bins than a broader lobe needs, so none loses accuracy), the
-// distance to each bin computed once and one division per bin serving every
-// lobe. A level's values depend on its group (on the narrowest lobe, and in
-// the last bits on the others): its normaliser must be cached under a key
-// that names the group. Each target's normaliser works as above. Returns the
-// mean number of bins per texel.
+// at nearby roughness values): one traversal, by the narrowest lobe among
+// them and the strictest horizon rule (bins at least as fine as each lobe
+// alone would use, so none loses accuracy), each bin's fields loaded and its
+// distance and variance computed once for every lobe; each lobe divided by
+// its own closed-form normaliser. A level's values depend on its group (on
+// the bins the narrowest lobe chose) within the integration error.
+// Returns the mean number of bins per texel.
 struct SpecularGroupTarget {
     Cubemap* dst;
     double roughness;
-    std::vector<float>* normaliser = nullptr;
 };
 double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, const BinTree& tree,
                                    const HierarchicalQuality& q = {});
-// Whether these roughness values can share a group: at most four, each in
-// (0, 1], the product of the lobes' scaled denominators finite in float
-// (about r >= 0.06 for four, r >= 0.03 for three).
+// Whether these roughness values can share a group: at most four, each in (0, 1].
 bool specular_group_safe(const std::vector<double>& roughness);
+
+// The instruction set the hierarchical sum's kernel runs on: "avx512",
+// "avx2" or "baseline" (x86-64 with SSE2, or any other CPU). The library is
+// built for the baseline; the best kernel the CPU has is chosen once per
+// process, unless the environment variable IBLBAKE_ISA names a lesser one
+// (baseline, avx2, avx512).
+const char* specular_kernel_isa();
+// Switches the kernel ("" = the best the CPU has), for tests and
+// measurements. Returns false (and changes nothing) when the CPU lacks it;
+// throws std::invalid_argument for an unknown name.
+bool set_specular_kernel_isa(const std::string& isa);
+
+// The eps a level of this face size uses: q.eps from face 64 up, less below
+// (sqrt(face / 64), at least half): small levels are cheap and their wide
+// lobes the least forgiving of large bins.
+double hierarchical_level_eps(const HierarchicalQuality& q, int face);
+// The largest radius of a bin that may straddle a texel's horizon at this
+// roughness: level eps * horizon / sqrt(D(45 deg) / Z). The finest bins
+// should not exceed it.
+double hierarchical_horizon_radius(double roughness, int face, const HierarchicalQuality& q);
 
 }  // namespace iblbake

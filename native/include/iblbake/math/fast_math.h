@@ -21,4 +21,27 @@ inline float fast_acos(float x) {
     return x >= 0.0f ? r : 3.14159265358979f - r;
 }
 
+// atan2(y, x) in double without a library call, so that loops of it
+// vectorise: Cephes' atan (a rational function of degree 9 / 10 after
+// reduction to [0, 0.66] or through pi/4 + atan((a - 1) / (a + 1))), on
+// a = min / max of |x|, |y|, then the quadrant. Within 2 ulp of std::atan2
+// (tests/native/test_geometry.cpp); (0, 0) gives 0.
+inline double atan2_vec(double y, double x) {
+    const double ax = std::fabs(x), ay = std::fabs(y);
+    const double hi = ax > ay ? ax : ay, lo = ax > ay ? ay : ax;
+    const double a = hi > 0.0 ? lo / hi : 0.0;
+    const bool mid = a > 0.66;
+    const double t = mid ? (a - 1.0) / (a + 1.0) : a;
+    const double z = t * t;
+    const double p = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z - 7.500855792314704667340e1) * z -
+                      1.228866684490136173410e2) * z - 6.485021904942025371773e1;
+    const double q = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z + 4.328810604912902668951e2) *
+                      z + 4.853903996359136964868e2) * z + 1.945506571482613964425e2;
+    double r = t + t * z * p / q;
+    r += mid ? 0.78539816339744830962 + 0.5 * 6.123233995736765886130e-17 : 0.0;
+    r = ay > ax ? 1.57079632679489661923 - r : r;
+    r = x < 0.0 ? 3.14159265358979323846 - r : r;
+    return y < 0.0 ? -r : r;
+}
+
 }  // namespace iblbake

@@ -67,4 +67,23 @@ struct OverlayPiece {
 };
 std::vector<OverlayPiece> overlay_partitions(int n_a, int n_b);
 
+// SPEC.md section 1's bilinear L is a sum of texel values times hats:
+// L(u, v) = sum L_xy H_x(u) H_y(t), t = 1 - v, with H_x the periodic hat of
+// column x (1 at its centre, 0 at its neighbours') and H_y that of row y
+// (the top and bottom rows' hats flat out to the pole). Every integral of L
+// over a lat-long rectangle against a function of longitude times a function
+// of latitude is then a sum of products of one-dimensional hat integrals.
+// A HatPiece is one texel's hat restricted to one bin of a grid of `bins`
+// equal cells, integrated against a set of functions (Gauss-Legendre on each
+// piece between breakpoints: exact to double rounding):
+//   longitude: over phi of H_x * {1, cos, sin, cos^2, sin^2, sin cos}
+//   latitude:  over s = sin(lat) of H_y * {1, s, s^2, sqrt(1 - s^2), s sqrt(1 - s^2)}
+// (the measures of LonIntegrals and LatIntegrals). Sorted by bin, then texel.
+struct HatPiece {
+    int texel, bin;
+    double w[6];
+};
+std::vector<HatPiece> hat_pieces_lon(int texels, int bins);
+std::vector<HatPiece> hat_pieces_lat(int texels, int bins);
+
 }  // namespace iblbake

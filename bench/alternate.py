@@ -1,0 +1,79 @@
+#!/usr/bin/env python3
+"""Times shell commands side by side, alternating, in one run: the way to
+compare two builds (or iblbake and cmft) on a shared host whose speed drifts.
+
+    bench/alternate.py [--reps N] [--warmup W] NAME=COMMAND NAME=COMMAND ...
+
+Each round runs every command once, in the given order (rotated by one each
+round, so no command always follows the same one), under /usr/bin/time for
+wall time, CPU time (user + system) and peak RSS. Prints the load average before and after, and per
+command the median wall time, its spread (min..max), the median CPU time,
+the median peak RSS and the ratios of the medians to the first command's. Commands run through
+`sh -c`; their output is discarded; a failure stops the run."""
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+
+def run(cmd, rss_file):
+    t0 = time.perf_counter()
+    r = subprocess.run(["/usr/bin/time", "-f", "%M %U %S", "-o", rss_file, "sh", "-c", cmd],
+                       stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    wall = time.perf_counter() - t0
+    if r.returncode != 0:
+        sys.exit(f"command failed ({r.returncode}): {cmd}\n{r.stderr.decode(errors='replace')[-2000:]}")
+    with open(rss_file) as f:
+        kb, user, system = f.read().split()[-3:]
+    return wall, int(kb) / 1024.0, float(user) + float(system)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--reps", type=int, default=7)
+    ap.add_argument("--warmup", type=int, default=1, help="untimed rounds first (caches, page cache)")
+    ap.add_argument("commands", nargs="+", metavar="NAME=COMMAND")
+    a = ap.parse_args()
+    cmds = []
+    for c in a.commands:
+        name, sep, cmd = c.partition("=")
+        if not sep:
+            sys.exit(f"expected NAME=COMMAND, got {c!r}")
+        cmds.append((name, cmd))
+    fd, rss_file = tempfile.mkstemp()
+    os.close(fd)
+    load0 = os.getloadavg()
+    for _ in range(a.warmup):
+        for _, cmd in cmds:
+            run(cmd, rss_file)
+    walls = {n: [] for n, _ in cmds}
+    rss = {n: [] for n, _ in cmds}
+    cpu = {n: [] for n, _ in cmds}
+    for k in range(a.reps):
+        for j in range(len(cmds)):
+            name, cmd = cmds[(j + k) % len(cmds)]
+            w, m, c = run(cmd, rss_file)
+            walls[name].append(w)
+            rss[name].append(m)
+            cpu[name].append(c)
+    load1 = os.getloadavg()
+    os.unlink(rss_file)
+    print(f"load average before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, "
+          f"after {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}; {a.reps} alternating rounds, {os.cpu_count()} cores")
+    first = statistics.median(walls[cmds[0][0]])
+    first_cpu = statistics.median(cpu[cmds[0][0]])
+    print(f"{'command':<14} {'wall s':>8} {'min..max s':>15} {'CPU s':>7} {'peak RSS MB':>12} "
+          f"{'wall / 1st':>10} {'CPU / 1st':>9}")
+    for name, _ in cmds:
+        med, mc = statistics.median(walls[name]), statistics.median(cpu[name])
+        print(f"{name:<14} {med:8.3f} {min(walls[name]):7.3f}..{max(walls[name]):<7.3f} {mc:7.3f} "
+              f"{statistics.median(rss[name]):12.1f} {med / first:10.2f} {mc / first_cpu:9.2f}")
+    for name, cmd in cmds:
+        print(f"  {name}: {cmd}")
+
+
+if __name__ == "__main__":
+    main()

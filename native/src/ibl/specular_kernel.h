@@ -1,0 +1,35 @@
+// The hierarchical specular sum's inner loop (specular.cpp), built once per
+// instruction set in its own translation unit (specular_kernel_*.cpp, each
+// compiled with its own -m flags) and chosen at run time: the library itself
+// is built for the baseline x86-64 and runs on any CPU.
+#pragma once
+#include <cstddef>
+
+namespace iblbake {
+namespace kernel {
+
+// The fields of the bins a tile uses, structure-of-arrays: unit centroid p,
+// g = 1 - |m|, power per channel, covariance (xx, yy, zz, xy, xz, yz).
+enum Field { kPx, kPy, kPz, kG, kP0, kP1, kP2, kCxx, kCyy, kCzz, kCxy, kCxz, kCyz, kFields };
+
+constexpr size_t kLanes = 16;  // independent partial sums: the order stays fixed
+constexpr int kMaxLobes = 4;
+
+// For `lobes` GGX lobes (1..kMaxLobes, a2[k] = alpha_k^2) at one direction n,
+// sum_b power_b E_b[k(n.w)] over `count` bins (a multiple of kLanes), k the
+// prefilter kernel up to its constant factor 4 a^2 / pi, by the second- and
+// fourth-order rule from each bin's moments (specular.cpp). The bins' loads,
+// distances and variances are shared by the lobes. num[k][ch].
+using SumsFn = void (*)(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny,
+                        float nz, double (*num)[3]);
+
+// One per instruction set; the avx2 and avx512 ones exist only on x86-64.
+void sums_baseline(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny, float nz,
+                   double (*num)[3]);
+void sums_avx2(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny, float nz,
+               double (*num)[3]);
+void sums_avx512(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny, float nz,
+                 double (*num)[3]);
+
+}  // namespace kernel
+}  // namespace iblbake
