@@ -98,7 +98,28 @@ def plot(kind, rows, metric, ylabel, path, per_source=True):
     plt.close(fig)
 
 
+KEEP_BEGIN, KEEP_END = "<!-- kept by bench/report.py -->", "<!-- /kept -->"
+
+
+def kept_sections(text):
+    """The hand-written parts of an earlier page (between KEEP_BEGIN and
+    KEEP_END, markers included), which a regenerated page carries over
+    unchanged: measurements this run does not make (issue 14's side-by-side
+    timings against main and cmft, say)."""
+    out, start = [], 0
+    while True:
+        a = text.find(KEEP_BEGIN, start)
+        if a < 0:
+            return out
+        b = text.find(KEEP_END, a)
+        if b < 0:
+            raise ValueError("docs/benchmarks.md: %s without %s" % (KEEP_BEGIN, KEEP_END))
+        out.append(text[a:b + len(KEEP_END)] + "\n")
+        start = b + len(KEEP_END)
+
+
 def generate(results, doc_path, meta):
+    kept = kept_sections(doc_path.read_text()) if doc_path.exists() else []
     lut = num(read_csv(results / "lut.csv"))
     irr = num(read_csv(results / "irradiance.csv"))
     spec = num(read_csv(results / "specular.csv"))
@@ -128,6 +149,8 @@ def generate(results, doc_path, meta):
       "the reference's (saRMS), the energy bias (sum Omega out / sum Omega ref - 1) and the earlier relative "
       "RMSE (|out - ref| / ref, no floor: it blows up on black texels). Irradiance is 32 x 32 per face, specular "
       "256 x 256 with the full chain of 9 levels (r = m / 8), the LUT 512 x 512 (karis).\n")
+    for section in kept:
+        w(section)
 
     # ---------------------------------------------------------------- bounds
     w("## Do the defaults meet the bounds on every source?\n")
