@@ -135,7 +135,7 @@ def generate(results, doc_path, meta):
     w("# Benchmarks: run time against error\n")
     w(f"Made by `{meta['command']}` on {meta['date']}, on this machine: {meta['machine']} "
       f"(shared with other work, so timings are noisy; medians are used). Commit `{meta['commit']}`. "
-      f"The whole run took {meta['run_minutes']:.1f} min. Every number below comes from that run (the two timing tables at the end from a later `--redo-timing`, dated there); "
+      f"The whole run took {meta['run_minutes']:.1f} min. Every number below comes from that run (the two timing tables at the end from a later `--redo-timing`, dated there), except the sections marked as kept, which a run carries over and which say how they were measured; "
       f"the raw data is in [`{rel}/`]({rel}/) (CSV) with the plots.\n")
     w("Errors are measured against the exhaustive reference of SPEC's integral over the **bilinear** source "
       "(`tests/native/reference.cpp`: the bilinear L integrated cell by cell between texel centres with "
