@@ -205,9 +205,14 @@ def bake_and_watch(key):
     PULSE.reset(key)
     start = time.perf_counter()
     result = click_bake()
-    shot = False
+    shot, past = False, None
     while state.RUN is not None:
-        if not shot and state.RUN.stage == "Specular levels":
+        # A quarter second past "Starting", once the panel has redrawn the
+        # bar (a fast bake's integration stages can pass between two polls;
+        # reading or rendering lasts longer).
+        if past is None and state.RUN.stage != "Starting":
+            past = time.perf_counter()
+        if not shot and past is not None and time.perf_counter() - past > 0.25:
             screenshot(key + "_during")
             shot = True
         yield 0.02

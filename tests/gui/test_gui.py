@@ -103,6 +103,9 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
     res = json.loads(result.read_text())
     keep = os.path.join(BUILD, "tests", "gui")
     os.makedirs(keep, exist_ok=True)
+    for old in os.listdir(keep):  # an earlier run's screenshots never pass for this run's
+        if old.endswith(".png"):
+            os.remove(os.path.join(keep, old))
     for shot in res["screenshots"]:
         if os.path.isfile(shot):
             shutil.copy(shot, keep)
@@ -146,5 +149,7 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
 
     # No world: refused in words, nothing written.
     assert "no world" in res["no_world"]["status"] and not res["no_world"]["written"], res["no_world"]
+    names = {os.path.basename(shot) for shot in res["screenshots"]}
+    assert {"image_during.png", "sky_during.png"} <= names, sorted(names)
     for shot in res["screenshots"]:
         assert os.path.getsize(shot) > 10000, shot
