@@ -353,12 +353,13 @@ def case_cancel(args):
             return progress(stage, fraction)
         return pipeline.bake(source, pixels, settings, needs, watch, extra)
 
-    job = BakeJob(work).start()
-    job.wait(120)
+    job = BakeJob(work)  # bound before it starts: watch() may run before start() returns
+    job.start()
+    finished = job.wait(120)
     after = open(os.path.join(out, "manifest.json")).read()
     siblings = sorted(os.listdir(WORK))
-    return {"first": first, "cancelled": job.cancelled, "error": str(job.error) if job.error else None,
-            "stages": stages, "unchanged": before == after, "siblings": siblings}
+    return {"first": first, "finished": finished, "cancelled": job.cancelled,
+            "error": str(job.error) if job.error else None, "stages": stages, "unchanged": before == after, "siblings": siblings}
 
 
 def case_missing(args):

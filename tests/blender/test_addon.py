@@ -160,7 +160,7 @@ def test_world_is_baked_as_it_lights_the_scene_not_as_the_camera_sees_it(case):
 def test_cancelled_bake_keeps_the_earlier_one(case):
     res, work = case("cancel")
     assert res["first"]["error"] == ""
-    assert res["cancelled"] and res["error"] is None
+    assert res["finished"] and res["cancelled"] and res["error"] is None, res
     assert "specular" in res["stages"] and "brdf_lut" not in res["stages"]
     assert res["unchanged"]
     assert res["siblings"] == ["field.exr", "out"]  # no staging folder left behind
