@@ -241,19 +241,23 @@ TEST(Specular, WorstTexelNearASunWithinOnePercentAtDefaults) {
 // on a group of lobes; and a forced kernel is the one that runs (its bits
 // differ from the baseline's, its name is recorded).
 TEST(Specular, RowKernelsOfEveryIsaAgreeWithTheBaseline) {
-    // SH9's row sums and mip 0's lat-long coordinates are built per
-    // instruction set too: each agrees with the baseline's, and mip 0 stays
-    // SPEC's bilinear lookup. A width of 300 leaves a tail past the lanes.
+    // SH9's row sums, mip 0's lat-long coordinates and the irradiance's
+    // cosine sums are built per instruction set too: each agrees with the
+    // baseline's, and mip 0 stays SPEC's bilinear lookup. A width of 300 leaves a tail past the lanes.
     const Image src = ref::random_smooth_source(300, 150, 11);
-    auto run = [&](const std::string& isa, std::array<Sh9, 3>& sh, Cubemap& mip0) {
+    BakeOptions o;
+    o.specular = o.lut = false;
+    o.irradiance_size = 8;
+    auto run = [&](const std::string& isa, std::array<Sh9, 3>& sh, Cubemap& mip0, Cubemap& irr) {
         if (!set_specular_kernel_isa(isa)) return false;
         sh = project_sh9(src);
         specular_mirror(mip0, src);
+        irr = *compute_bake(src, o).irradiance;  // the irradiance's cosine sums
         return true;
     };
     std::array<Sh9, 3> base_sh{};
-    Cubemap base_mip0(37);
-    ASSERT_TRUE(run("baseline", base_sh, base_mip0));
+    Cubemap base_mip0(37), base_irr;
+    ASSERT_TRUE(run("baseline", base_sh, base_mip0, base_irr));
     double worst_lookup = 0.0;
     for (int f = 0; f < 6; ++f)
         for (int j = 0; j < 37; ++j)
@@ -266,8 +270,8 @@ TEST(Specular, RowKernelsOfEveryIsaAgreeWithTheBaseline) {
     EXPECT_LT(worst_lookup, 1e-6);
     for (const std::string isa : {"avx2", "avx512"}) {
         std::array<Sh9, 3> sh{};
-        Cubemap mip0(37);
-        if (!run(isa, sh, mip0)) {
+        Cubemap mip0(37), irr;
+        if (!run(isa, sh, mip0, irr)) {
             std::printf("[row kernels] this CPU has no %s\n", isa.c_str());
             continue;
         }
@@ -279,6 +283,12 @@ TEST(Specular, RowKernelsOfEveryIsaAgreeWithTheBaseline) {
             worst = std::max(worst, std::fabs(double(mip0.pixels[k]) - base_mip0.pixels[k]) / base_mip0.pixels[k]);
         std::printf("[row kernels %s vs baseline] mip 0 max rel difference %.2e\n", isa.c_str(), worst);
         EXPECT_LT(worst, 1e-6) << isa;
+        ASSERT_EQ(irr.pixels.size(), base_irr.pixels.size());
+        double worst_irr = 0.0;
+        for (size_t k = 0; k < irr.pixels.size(); ++k)
+            worst_irr = std::max(worst_irr, std::fabs(double(irr.pixels[k]) - base_irr.pixels[k]) / base_irr.pixels[k]);
+        std::printf("[row kernels %s vs baseline] irradiance max rel difference %.2e\n", isa.c_str(), worst_irr);
+        EXPECT_LT(worst_irr, 1e-5) << isa;
     }
     set_specular_kernel_isa("");
 }

@@ -1,7 +1,7 @@
-// The SH9 projection's row sums and mip 0's lat-long coordinates
-// (specular_kernel.h), included by one translation unit per instruction set
-// (specular_kernel_*.cpp) with IBLBAKE_SH9_ROW_NAME and
-// IBLBAKE_MIRROR_ROW_NAME set to the functions it defines; nothing else
+// The SH9 projection's row sums, mip 0's lat-long coordinates and the
+// irradiance's cosine sums (specular_kernel.h), included by one translation
+// unit per instruction set (specular_kernel_*.cpp) with IBLBAKE_ISA_SUFFIX
+// naming the functions it defines (sh9_row_<suffix>, ...); nothing else
 // here has external linkage (atan2 is this file's own copy of
 // math/fast_math.h's atan2_vec, so no inline function built with these
 // flags can be picked by the linker for another unit).
@@ -10,10 +10,14 @@
 
 #include "specular_kernel.h"
 
+#define IBLBAKE_ROW_KERNEL_CAT(a, b) a##_##b
+#define IBLBAKE_ROW_KERNEL_NAME(a, b) IBLBAKE_ROW_KERNEL_CAT(a, b)
+#define IBLBAKE_ROW_KERNEL(name) IBLBAKE_ROW_KERNEL_NAME(name, IBLBAKE_ISA_SUFFIX)
+
 namespace iblbake {
 namespace kernel {
 
-void IBLBAKE_SH9_ROW_NAME(const float* row, int width, const double* const* wl, double (*t)[6]) {
+void IBLBAKE_ROW_KERNEL(sh9_row)(const float* row, int width, const double* const* wl, double (*t)[6]) {
     constexpr int kLanes8 = 8;  // independent partial sums, one vector of doubles on AVX-512
     double acc[3][6][kLanes8] = {};
     const int whole = width / kLanes8 * kLanes8;
@@ -58,7 +62,7 @@ double atan2_row(double y, double x) {
 
 }  // namespace
 
-void IBLBAKE_MIRROR_ROW_NAME(const double* frame, double b, int n, int w, int h, double* fx, double* fy) {
+void IBLBAKE_ROW_KERNEL(mirror_row)(const double* frame, double b, int n, int w, int h, double* fx, double* fy) {
     constexpr double kPiD = 3.14159265358979323846;
     for (int i = 0; i < n; ++i) {
         const double a = 2.0 * (i + 0.5) / n - 1.0;
@@ -72,6 +76,37 @@ void IBLBAKE_MIRROR_ROW_NAME(const double* frame, double b, int n, int w, int h,
         fy[i] = (1.0 - v) * h - 0.5;
     }
 }
+
+void IBLBAKE_ROW_KERNEL(irr_horizon)(const float* cx, const float* cy, const float* cz, const float* sin_radius,
+                                     size_t count, float nx, float ny, float nz, float* whole) {
+    for (size_t p = 0; p < count; ++p) {
+        const float d = nx * cx[p] + ny * cy[p] + nz * cz[p];
+        whole[p] = (d < 0.0f ? -d : d) > sin_radius[p] ? 1.0f : 0.0f;
+    }
+}
+
+double IBLBAKE_ROW_KERNEL(irr_sum)(const float* x, const float* y, const float* z, const float* whole, size_t count,
+                                   float nx, float ny, float nz) {
+    constexpr size_t kLanes16 = 16, kBlock256 = 256;
+    double total = 0.0;
+    for (size_t b = 0; b < count; b += kBlock256) {
+        const size_t e = count < b + kBlock256 ? count : b + kBlock256;
+        float s[kLanes16] = {};
+        for (size_t p = b; p < e; p += kLanes16)
+            for (size_t l = 0; l < kLanes16; ++l) {
+                const float v = nx * x[p + l] + ny * y[p + l] + nz * z[p + l];
+                s[l] += whole[p + l] * (v > 0.0f ? v : 0.0f);
+            }
+        float t = 0.0f;
+        for (size_t l = 0; l < kLanes16; ++l) t += s[l];
+        total += t;
+    }
+    return total;
+}
+
+#undef IBLBAKE_ROW_KERNEL
+#undef IBLBAKE_ROW_KERNEL_NAME
+#undef IBLBAKE_ROW_KERNEL_CAT
 
 }  // namespace kernel
 }  // namespace iblbake

@@ -202,6 +202,26 @@ kernel::MirrorRowFn kernel::mirror_row_fn() {
     }
 }
 
+kernel::IrrHorizonFn kernel::irr_horizon_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::irr_horizon_avx512;
+        case Isa::Avx2: return kernel::irr_horizon_avx2;
+#endif
+        default: return kernel::irr_horizon_baseline;
+    }
+}
+
+kernel::IrrSumFn kernel::irr_sum_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::irr_sum_avx512;
+        case Isa::Avx2: return kernel::irr_sum_avx2;
+#endif
+        default: return kernel::irr_sum_baseline;
+    }
+}
+
 kernel::Sh9RowFn kernel::sh9_row_fn() {
     switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
 #if defined(IBLBAKE_KERNEL_X86)

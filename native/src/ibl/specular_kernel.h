@@ -1,6 +1,7 @@
 // The hierarchical specular sum's inner loop (specular.cpp), the SH9
-// projection's row sums (source.cpp) and mip 0's lat-long coordinates
-// (specular_mirror), built once per
+// projection's row sums (source.cpp), mip 0's lat-long coordinates
+// (specular_mirror) and the irradiance's cosine sums (irradiance.cpp),
+// built once per
 // instruction set in its own translation unit (specular_kernel_*.cpp, each
 // compiled with its own -m flags) and chosen at run time: the library itself
 // is built for the baseline x86-64 and runs on any CPU.
@@ -51,6 +52,24 @@ void mirror_row_baseline(const double* frame, double b, int n, int w, int h, dou
 void mirror_row_avx2(const double* frame, double b, int n, int w, int h, double* fx, double* fy);
 void mirror_row_avx512(const double* frame, double b, int n, int w, int h, double* fx, double* fy);
 MirrorRowFn mirror_row_fn();
+
+// The irradiance's groups wholly on one side of n's horizon (irradiance.cpp):
+// whole[p] = 1 where |n.c_p| > sin_radius[p], else 0, for p < count.
+using IrrHorizonFn = void (*)(const float* cx, const float* cy, const float* cz, const float* sin_radius,
+                              size_t count, float nx, float ny, float nz, float* whole);
+// And their cosine sum: sum over p < count of whole[p] max(0, n.(x, y, z)_p),
+// count a multiple of 16, in 16 float lanes within blocks of 256, double
+// across blocks (the same order for every instruction set).
+using IrrSumFn = double (*)(const float* x, const float* y, const float* z, const float* whole, size_t count,
+                            float nx, float ny, float nz);
+void irr_horizon_baseline(const float*, const float*, const float*, const float*, size_t, float, float, float, float*);
+void irr_horizon_avx2(const float*, const float*, const float*, const float*, size_t, float, float, float, float*);
+void irr_horizon_avx512(const float*, const float*, const float*, const float*, size_t, float, float, float, float*);
+double irr_sum_baseline(const float*, const float*, const float*, const float*, size_t, float, float, float);
+double irr_sum_avx2(const float*, const float*, const float*, const float*, size_t, float, float, float);
+double irr_sum_avx512(const float*, const float*, const float*, const float*, size_t, float, float, float);
+IrrHorizonFn irr_horizon_fn();
+IrrSumFn irr_sum_fn();
 
 // These for the instruction set the specular kernel runs with
 // (specular_kernel_isa(), IBLBAKE_ISA).
