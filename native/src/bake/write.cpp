@@ -430,8 +430,8 @@ json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const Source
 }
 
 json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
-                const SourceInfo& src, const ProgressFn& progress) {
-    BakeWriter w(outdir, wo, progress);
+                const SourceInfo& src, const ProgressFn& progress, LutCache* lut_cache) {
+    BakeWriter w(outdir, wo, progress, lut_cache);
     w.computed();  // the caller's bake is done: every write polls
     if (r.irradiance) w.cube("irradiance", *r.irradiance);
     for (size_t i = 0; i < r.specular.size(); ++i) w.cube("specular_" + std::to_string(r.specular_levels[i]), r.specular[i]);

@@ -87,8 +87,9 @@ private:
 
 // Write every output and manifest.json into `outdir`, atomically (a
 // BakeWriter handed everything at once). The manifest's `files` records
-// each file's size and sha256; `progress` as BakeWriter's. Returns the manifest.
+// each file's size and sha256; `progress` and `lut_cache` as BakeWriter's. Returns the manifest.
 nlohmann::json write_bake(const BakeResult& r, const std::filesystem::path& outdir, const BakeOptions& bo,
-                          const WriteOptions& wo, const SourceInfo& src, const ProgressFn& progress = {});
+                          const WriteOptions& wo, const SourceInfo& src, const ProgressFn& progress = {},
+                          LutCache* lut_cache = nullptr);
 
 }  // namespace iblbake
