@@ -235,7 +235,7 @@ pybind11::dict run_bake(Parsed& p, const std::string& out, SourceInfo src, Compu
         pybind11::gil_scoped_release release;
         r = compute(src);
         manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
-                               : write_bake(r, out, p.bo, p.wo, src, p.progress);
+                               : write_bake(r, out, p.bo, p.wo, src, p.progress, p.lut_cache());
     }
     pybind11::dict d = result_dict(r);
     d["manifest"] = json_to_py(manifest);

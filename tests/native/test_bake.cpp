@@ -7,7 +7,9 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "iblbake/bake/bake_file.h"
 #include "iblbake/bake/lut_cache.h"
@@ -218,6 +220,57 @@ TEST(LutCache, SecondBakeReadsTheFirstOnesLut) {
         EXPECT_FALSE(compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache).lut_from_cache) << size;
         EXPECT_EQ(fs::file_size(entry), good_size);
     }
+}
+
+TEST(LutCache, SecondBakeCopiesTheLutFilesTheFirstEncoded) {
+    const fs::path dir = temp_dir("lutfiles");
+    const fs::path src = write_source(dir, ref::random_smooth_source(32, 16, 5));
+    FileLutCache cache(dir / "cache");
+    WriteOptions wo;
+    wo.png = true;
+    auto bytes = [](const fs::path& p) {
+        std::ifstream f(p, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(f), {});
+    };
+    auto entries = [&] {
+        std::vector<fs::path> e;
+        for (const auto& it : fs::directory_iterator(dir / "cache"))
+            if (it.path().extension() == ".enc") e.push_back(it.path());
+        std::sort(e.begin(), e.end());
+        return e;
+    };
+    bake_file(src.string(), dir / "a", small_options(), wo, {}, &cache);
+    const std::vector<fs::path> enc = entries();
+    ASSERT_EQ(enc.size(), 2u);  // the EXR's and the PNG's
+    bake_file(src.string(), dir / "b", small_options(), wo, {}, &cache);
+    EXPECT_EQ(entries(), enc);
+    for (const char* f : {"brdf_lut.exr", "brdf_lut.png"}) {
+        EXPECT_EQ(bytes(dir / "a" / f), bytes(dir / "b" / f)) << f;
+        EXPECT_FALSE(bytes(dir / "b" / f).empty()) << f;
+    }
+    // A damaged entry is a miss: the file is encoded again (the same bytes)
+    // and the entry replaced.
+    for (const fs::path& e : enc) {
+        std::string b = bytes(e);
+        b.back() ^= 1;
+        std::ofstream(e, std::ios::binary | std::ios::trunc) << b;
+        EXPECT_FALSE(cache.copy_encoded(e.stem().string(), dir / "x"));
+    }
+    bake_file(src.string(), dir / "c", small_options(), wo, {}, &cache);
+    for (const char* f : {"brdf_lut.exr", "brdf_lut.png"}) EXPECT_EQ(bytes(dir / "a" / f), bytes(dir / "c" / f)) << f;
+    for (const fs::path& e : enc) EXPECT_TRUE(cache.copy_encoded(e.stem().string(), dir / "x")) << e;
+    // The copy is what the entry holds (the control that bakes do copy),
+    // and the key is the table's pixels and the encoding.
+    { std::ofstream(dir / "hello") << "hello"; }
+    cache.store_encoded("k", dir / "hello");
+    ASSERT_TRUE(cache.copy_encoded("k", dir / "copy"));
+    EXPECT_EQ(bytes(dir / "copy"), "hello");
+    EXPECT_FALSE(cache.copy_encoded("other", dir / "copy"));
+    Image lut(4, 4);
+    const std::string k = encoded_lut_key(lut, "exr");
+    EXPECT_NE(k, encoded_lut_key(lut, "png"));
+    lut.pixels[7] = 1.0f;
+    EXPECT_NE(k, encoded_lut_key(lut, "exr"));
 }
 
 TEST(Io, CrossStreamedInBandsReadsBackExactly) {

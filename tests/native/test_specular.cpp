@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -239,6 +240,59 @@ TEST(Specular, WorstTexelNearASunWithinOnePercentAtDefaults) {
 // float rounding, far inside the integration error, on single levels and
 // on a group of lobes; and a forced kernel is the one that runs (its bits
 // differ from the baseline's, its name is recorded).
+TEST(Specular, RowKernelsOfEveryIsaAgreeWithTheBaseline) {
+    // SH9's row sums, mip 0's lat-long coordinates and the irradiance's
+    // cosine sums are built per instruction set too: each agrees with the
+    // baseline's, and mip 0 stays SPEC's bilinear lookup. A width of 300 leaves a tail past the lanes.
+    const Image src = ref::random_smooth_source(300, 150, 11);
+    BakeOptions o;
+    o.specular = o.lut = false;
+    o.irradiance_size = 8;
+    auto run = [&](const std::string& isa, std::array<Sh9, 3>& sh, Cubemap& mip0, Cubemap& irr) {
+        if (!set_specular_kernel_isa(isa)) return false;
+        sh = project_sh9(src);
+        specular_mirror(mip0, src);
+        irr = *compute_bake(src, o).irradiance;  // the irradiance's cosine sums
+        return true;
+    };
+    std::array<Sh9, 3> base_sh{};
+    Cubemap base_mip0(37), base_irr;
+    ASSERT_TRUE(run("baseline", base_sh, base_mip0, base_irr));
+    double worst_lookup = 0.0;
+    for (int f = 0; f < 6; ++f)
+        for (int j = 0; j < 37; ++j)
+            for (int i = 0; i < 37; ++i) {
+                float v[3];
+                latlong_bilinear(src, texel_direction(f, i, j, 37), v);
+                for (int c = 0; c < 3; ++c)
+                    worst_lookup = std::max(worst_lookup, std::fabs(double(base_mip0.at(f, i, j)[c]) - v[c]) / v[c]);
+            }
+    EXPECT_LT(worst_lookup, 1e-6);
+    for (const std::string isa : {"avx2", "avx512"}) {
+        std::array<Sh9, 3> sh{};
+        Cubemap mip0(37), irr;
+        if (!run(isa, sh, mip0, irr)) {
+            std::printf("[row kernels] this CPU has no %s\n", isa.c_str());
+            continue;
+        }
+        for (int c = 0; c < 3; ++c)
+            for (int k = 0; k < 9; ++k)
+                EXPECT_NEAR(sh[c][k], base_sh[c][k], 1e-12 * std::fabs(base_sh[c][0])) << isa << " " << c << " " << k;
+        double worst = 0.0;
+        for (size_t k = 0; k < mip0.pixels.size(); ++k)
+            worst = std::max(worst, std::fabs(double(mip0.pixels[k]) - base_mip0.pixels[k]) / base_mip0.pixels[k]);
+        std::printf("[row kernels %s vs baseline] mip 0 max rel difference %.2e\n", isa.c_str(), worst);
+        EXPECT_LT(worst, 1e-6) << isa;
+        ASSERT_EQ(irr.pixels.size(), base_irr.pixels.size());
+        double worst_irr = 0.0;
+        for (size_t k = 0; k < irr.pixels.size(); ++k)
+            worst_irr = std::max(worst_irr, std::fabs(double(irr.pixels[k]) - base_irr.pixels[k]) / base_irr.pixels[k]);
+        std::printf("[row kernels %s vs baseline] irradiance max rel difference %.2e\n", isa.c_str(), worst_irr);
+        EXPECT_LT(worst_irr, 1e-5) << isa;
+    }
+    set_specular_kernel_isa("");
+}
+
 TEST(Specular, EveryKernelIsaAgreesWithTheBaseline) {
     const Image src = ref::sun_source(512, 256, {0.4, 0.6, 0.3}, 1.0, 5e4f, 0.3f);
     BakeOptions o = specular_only(64, 7);

@@ -1,4 +1,5 @@
 """The Python module: arguments, results, errors, files, the GIL."""
+import hashlib
 import json
 import math
 import os
@@ -205,6 +206,17 @@ def test_lut_cache_dir_reuses_the_lut(tmp_path):
     assert not a["manifest"]["brdf_lut"]["from_cache"] and b["manifest"]["brdf_lut"]["from_cache"]
     np.testing.assert_array_equal(a["brdf_lut"], b["brdf_lut"])
     assert len(list(tmp_path.iterdir())) == 1
+
+
+def test_lut_cache_dir_also_keeps_the_written_lut_file(tmp_path):
+    cache = tmp_path / "cache"
+    for out in ("a", "b"):
+        ib.bake(latlong(), str(tmp_path / out), lut_cache_dir=str(cache), specular=False, irradiance=False, lut_size=8)
+    assert len(list(cache.glob("*.enc"))) == 1  # the second bake copied the first one's file
+    data = (tmp_path / "b" / "brdf_lut.exr").read_bytes()
+    assert data == (tmp_path / "a" / "brdf_lut.exr").read_bytes()
+    m = json.loads((tmp_path / "b" / "manifest.json").read_text())
+    assert m["files"]["brdf_lut.exr"]["sha256"] == hashlib.sha256(data).hexdigest()
 
 
 def test_orientation_helpers_follow_the_contract():

@@ -27,7 +27,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     BakeOptions o = with_exports(bo, wo);  // the levels and files the presets need
     o.warnings.insert(o.warnings.begin(), loaded.warnings.begin(), loaded.warnings.end());
     // Every SPEC file is written as soon as its output is made, while the bake goes on.
-    BakeWriter writer(outdir, wo, progress);
+    BakeWriter writer(outdir, wo, progress, lut_cache);
     BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache, &writer);
     r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
     return writer.finish(r, o, src);

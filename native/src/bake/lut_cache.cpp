@@ -89,6 +89,63 @@ void FileLutCache::store(const std::string& key, const Image& lut) {
     fs::remove(tmp, ec);
 }
 
+std::string encoded_lut_key(const Image& lut, const std::string& encoding) {
+    return "brdf_lut-file-" + payload_digest(lut) + "-" + encoding;
+}
+
+namespace {
+
+constexpr char kEncodedMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', 'F', '1'};
+
+// The whole file, or nothing (missing, unreadable or larger than `limit`).
+std::optional<std::string> read_all(const fs::path& p, uintmax_t limit) {
+    std::error_code ec;
+    const uintmax_t size = fs::file_size(p, ec);
+    if (ec || size > limit) return std::nullopt;
+    File file{std::fopen(p.c_str(), "rb")};
+    if (!file.f) return std::nullopt;
+    std::string bytes(size_t(size), '\0');
+    if (std::fread(bytes.data(), 1, bytes.size(), file.f) != bytes.size()) return std::nullopt;
+    char extra;
+    if (std::fread(&extra, 1, 1, file.f) != 0) return std::nullopt;  // grew while read
+    return bytes;
+}
+
+bool write_all(const fs::path& p, const char* data, size_t size) {
+    File file{std::fopen(p.c_str(), "wb")};
+    return file.f && std::fwrite(data, 1, size, file.f) == size && std::fflush(file.f) == 0;
+}
+
+constexpr uintmax_t kMaxEncoded = uintmax_t(1) << 30;  // a 4096^2 float LUT is 200 MB
+
+}  // namespace
+
+bool FileLutCache::copy_encoded(const std::string& key, const fs::path& to) {
+    const std::optional<std::string> entry = read_all(dir_ / (key + ".enc"), kMaxEncoded + 72);
+    if (!entry || entry->size() < 72 || std::memcmp(entry->data(), kEncodedMagic, 8) != 0) return false;
+    const char* bytes = entry->data() + 72;
+    const size_t size = entry->size() - 72;
+    if (io::sha256_bytes(bytes, size) != entry->substr(8, 64)) return false;  // damaged
+    if (write_all(to, bytes, size)) return true;
+    std::error_code ec;
+    fs::remove(to, ec);  // the caller writes it itself
+    return false;
+}
+
+void FileLutCache::store_encoded(const std::string& key, const fs::path& from) {
+    const std::optional<std::string> bytes = read_all(from, kMaxEncoded);
+    if (!bytes) return;
+    std::error_code ec;
+    fs::create_directories(dir_, ec);
+    if (ec) return;  // a cache that cannot be written is not an error
+    std::string entry(kEncodedMagic, 8);
+    entry += io::sha256_bytes(bytes->data(), bytes->size());
+    entry += *bytes;
+    const fs::path tmp = dir_ / (key + ".tmp-" + std::to_string(::getpid()) + ".enc");
+    if (write_all(tmp, entry.data(), entry.size())) fs::rename(tmp, dir_ / (key + ".enc"), ec);
+    fs::remove(tmp, ec);
+}
+
 fs::path FileLutCache::default_dir() {
     if (const char* d = std::getenv("IBLBAKE_CACHE_DIR"); d && *d) return d;
     if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return fs::path(x) / "iblbake";

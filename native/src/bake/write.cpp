@@ -11,6 +11,7 @@
 
 #include <tbb/task_group.h>
 
+#include "iblbake/bake/lut_cache.h"
 #include "iblbake/export/export.h"
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/image/encode.h"
@@ -264,6 +265,7 @@ struct BakeWriter::Impl {
     WriteOptions wo;
     io::StagingDir staging;
     ProgressFn progress;
+    LutCache* lut_cache;
     tbb::task_group tasks;
     std::mutex mutex;                                 // parts and error
     std::vector<std::pair<std::string, json>> parts;  // per file set, merged in name order
@@ -272,7 +274,8 @@ struct BakeWriter::Impl {
     std::mutex poll_mutex;
     bool stopped = false;
     Poll poll;
-    Impl(const fs::path& outdir, const WriteOptions& w, const ProgressFn& p) : wo(w), staging(outdir), progress(p) {
+    Impl(const fs::path& outdir, const WriteOptions& w, const ProgressFn& p, LutCache* c)
+        : wo(w), staging(outdir), progress(p), lut_cache(c) {
         // Between bands of rows: a writer being destroyed stops at once; once
         // the bake is computed, the caller is asked too (while it computes,
         // its own progress calls are the bake's).
@@ -308,9 +311,10 @@ struct BakeWriter::Impl {
     }
 };
 
-BakeWriter::BakeWriter(const fs::path& outdir, const WriteOptions& wo, const ProgressFn& progress) {
+BakeWriter::BakeWriter(const fs::path& outdir, const WriteOptions& wo, const ProgressFn& progress,
+                       LutCache* lut_cache) {
     wo.validate();
-    impl_ = std::make_unique<Impl>(outdir, wo, progress);
+    impl_ = std::make_unique<Impl>(outdir, wo, progress, lut_cache);
 }
 
 BakeWriter::~BakeWriter() {
@@ -331,14 +335,27 @@ void BakeWriter::lut(const Image& lut) {
     const fs::path dir = im.staging.path();
     im.run("brdf_lut", [&im, dir, &lut](json& e) {
         im.poll();
+        // The same table is written the same way by every bake with these
+        // settings: its file comes from the cache when it can.
+        auto cached = [&](const fs::path& path, const char* encoding, const std::function<void()>& write) {
+            if (!im.lut_cache) return write();
+            const std::string key = encoded_lut_key(lut, encoding);
+            if (im.lut_cache->copy_encoded(key, path)) return;
+            write();
+            im.lut_cache->store_encoded(key, path);
+        };
         if (im.wo.exr) {
-            io::write_exr((dir / "brdf_lut.exr").string(), lut, io::ExrPixel::Float);
+            const fs::path p = dir / "brdf_lut.exr";
+            cached(p, "exr-float-zip1-v1", [&] { io::write_exr(p.string(), lut, io::ExrPixel::Float); });
             e["brdf_lut.exr"] = "float";
         }
         if (im.wo.png) {
-            std::vector<float> v(lut.pixels.size());
-            for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
-            io::write_png16((dir / "brdf_lut.png").string(), lut.width, lut.height, 3, v);
+            const fs::path p = dir / "brdf_lut.png";
+            cached(p, "png-unorm16-v1", [&] {
+                std::vector<float> v(lut.pixels.size());
+                for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut.pixels[k], 0.0f, 1.0f);
+                io::write_png16(p.string(), lut.width, lut.height, 3, v);
+            });
             e["brdf_lut.png"] = "unorm16";
         }
     });
@@ -413,8 +430,8 @@ json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const Source
 }
 
 json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
-                const SourceInfo& src, const ProgressFn& progress) {
-    BakeWriter w(outdir, wo, progress);
+                const SourceInfo& src, const ProgressFn& progress, LutCache* lut_cache) {
+    BakeWriter w(outdir, wo, progress, lut_cache);
     w.computed();  // the caller's bake is done: every write polls
     if (r.irradiance) w.cube("irradiance", *r.irradiance);
     for (size_t i = 0; i < r.specular.size(); ++i) w.cube("specular_" + std::to_string(r.specular_levels[i]), r.specular[i]);

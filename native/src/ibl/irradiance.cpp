@@ -8,19 +8,22 @@
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
+#include "specular_kernel.h"
 
 namespace iblbake {
 
 namespace {
 
 // One output direction against the bin groups: the groups in kLanes
-// independent float partials (the loop vectorises, the order is fixed),
+// independent float partials (kernel::irr_sum_fn, built for the CPU's
+// vectors; the order is fixed),
 // those across n's horizon then bin by bin, float within blocks, double
 // across them.
 void convolve_direction(const BinGroups& g, const Vec3d& n, float out[3]) {
-    constexpr size_t kLanes = 16, kBlock = 256;
+    constexpr size_t kLanes = 16;  // kernel::irr_sum_fn's
     const float nx = float(n.x), ny = float(n.y), nz = float(n.z);
     const size_t count = size_t(g.count), whole = count / kLanes * kLanes;
+    const kernel::IrrSumFn sum = kernel::irr_sum_fn();
     // whole[p]: 1 for a group wholly on one side of n's horizon (then
     // max(0, n.V) of its sum is exact: all of it, or none), else 0.
     thread_local std::vector<float> whole_group;
@@ -30,8 +33,7 @@ void convolve_direction(const BinGroups& g, const Vec3d& n, float out[3]) {
     float* wg = whole_group.data();
     uint32_t* ac = across.data();
     const float *cx = g.cx.data(), *cy = g.cy.data(), *cz = g.cz.data(), *sr = g.sin_radius.data();
-    for (size_t p = 0; p < count; ++p)  // vectorises
-        wg[p] = std::fabs(nx * cx[p] + ny * cy[p] + nz * cz[p]) > sr[p] ? 1.0f : 0.0f;
+    kernel::irr_horizon_fn()(cx, cy, cz, sr, count, nx, ny, nz, wg);  // vectorised for the CPU
     size_t n_across = 0;
     for (size_t p = 0; p < count; ++p) {  // branch-free compaction
         ac[n_across] = uint32_t(p);
@@ -41,19 +43,7 @@ void convolve_direction(const BinGroups& g, const Vec3d& n, float out[3]) {
         const float* x = g.vx[c].data();
         const float* y = g.vy[c].data();
         const float* z = g.vz[c].data();
-        double total = 0.0;
-        for (size_t b = 0; b < whole; b += kBlock) {
-            const size_t e = std::min(whole, b + kBlock);
-            float s[kLanes] = {};
-            for (size_t p = b; p < e; p += kLanes)
-                for (size_t l = 0; l < kLanes; ++l) {
-                    const float v = nx * x[p + l] + ny * y[p + l] + nz * z[p + l];
-                    s[l] += wg[p + l] * std::max(0.0f, v);
-                }
-            float t = 0.0f;
-            for (float v : s) t += v;
-            total += t;
-        }
+        double total = sum(x, y, z, wg, whole, nx, ny, nz);
         for (size_t p = whole; p < count; ++p) total += wg[p] * std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
         // Groups across the horizon, bin by bin.
         float t = 0.0f;

@@ -10,6 +10,7 @@
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
+#include "specular_kernel.h"
 
 namespace iblbake {
 
@@ -436,35 +437,18 @@ std::array<Sh9, 3> project_sh9(ImageView img) {
         wl[0][x] = l.p0; wl[1][x] = l.pc; wl[2][x] = l.ps;
         wl[3][x] = l.pcc; wl[4][x] = l.pss; wl[5][x] = l.psc;
     }
+    const double* const wlp[6] = {wl[0].data(), wl[1].data(), wl[2].data(), wl[3].data(), wl[4].data(), wl[5].data()};
     std::vector<std::array<Sh9, 3>> rows(h);
     // The basis integrals are linear in the longitude integrals, so a row's
     // projection is sh9_rect_integral of the radiance-weighted sums of them:
-    // 18 dot products, summed in kLanes fixed double lanes (vectorised, and
-    // the same order for any thread count).
-    constexpr int kLanes = 8;
+    // 18 dot products per row, in fixed lanes (kernel::sh9_row_fn, built for
+    // the CPU's vectors; the same order for any thread count).
+    const kernel::Sh9RowFn row_sums = kernel::sh9_row_fn();
     parallel_for(0, h, [&](int y) {
-        const float* row = img.at(0, y);
-        double acc[3][6][kLanes] = {};
-        const int whole = w / kLanes * kLanes;
-        for (int x0 = 0; x0 < whole; x0 += kLanes)
-            for (int l = 0; l < kLanes; ++l) {
-                const float* px = row + size_t(x0 + l) * 3;
-                for (int c = 0; c < 3; ++c) {
-                    const double v = px[c];
-                    for (int k = 0; k < 6; ++k) acc[c][k][l] += v * wl[k][x0 + l];
-                }
-            }
-        for (int x = whole; x < w; ++x)
-            for (int c = 0; c < 3; ++c)
-                for (int k = 0; k < 6; ++k) acc[c][k][0] += double(row[3 * x + c]) * wl[k][x];
-        for (int c = 0; c < 3; ++c) {
-            double t[6];
-            for (int k = 0; k < 6; ++k) {
-                t[k] = 0.0;
-                for (int l = 0; l < kLanes; ++l) t[k] += acc[c][k][l];
-            }
-            rows[y][c] = sh9_rect_integral(LonIntegrals{t[0], t[1], t[2], t[3], t[4], t[5]}, tab.lat[y]);
-        }
+        double t[3][6];
+        row_sums(img.at(0, y), w, wlp, t);
+        for (int c = 0; c < 3; ++c)
+            rows[y][c] = sh9_rect_integral(LonIntegrals{t[c][0], t[c][1], t[c][2], t[c][3], t[c][4], t[c][5]}, tab.lat[y]);
     });
     std::array<Sh9, 3> total{};
     for (const auto& r : rows)  // fixed order: the same sum for any thread count

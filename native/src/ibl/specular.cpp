@@ -58,26 +58,18 @@ std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQu
 
 void specular_mirror(Cubemap& dst, ImageView latlong) {
     const int n = dst.size, w = latlong.width, h = latlong.height;
+    const kernel::MirrorRowFn coords = kernel::mirror_row_fn();
     parallel_for(0, 6 * n, [&](int row) {
         const int f = row / n, j = row % n;
         // latlong_bilinear for a whole row: the lat-long coordinates first,
-        // in one loop that vectorises (atan2_vec), then the lookups.
+        // in one loop built for the CPU's vectors (kernel::mirror_row_fn),
+        // then the lookups.
         thread_local std::vector<double> fx, fy;
         fx.resize(n);
         fy.resize(n);
         const FaceFrame& fr = kFaceFrames[f];
-        const double b = 2.0 * (j + 0.5) / n - 1.0;
-        for (int i = 0; i < n; ++i) {
-            const double a = 2.0 * (i + 0.5) / n - 1.0;
-            const double ex = fr.ma.x + fr.s.x * a + fr.t.x * b, ey = fr.ma.y + fr.s.y * a + fr.t.y * b,
-                         ez = fr.ma.z + fr.s.z * a + fr.t.z * b;
-            // Blender (x, y, z) = (ex, -ez, ey); the length cancels in both angles.
-            const double bx = ex, by = -ez, bz = ey;
-            const double u = 0.5 - atan2_vec(by, bx) * (0.5 / kPi);
-            const double v = 0.5 + atan2_vec(bz, std::sqrt(bx * bx + by * by)) * (1.0 / kPi);
-            fx[i] = (u - std::floor(u)) * w - 0.5;
-            fy[i] = (1.0 - v) * h - 0.5;
-        }
+        const double frame[9] = {fr.ma.x, fr.ma.y, fr.ma.z, fr.s.x, fr.s.y, fr.s.z, fr.t.x, fr.t.y, fr.t.z};
+        coords(frame, 2.0 * (j + 0.5) / n - 1.0, n, w, h, fx.data(), fy.data());
         for (int i = 0; i < n; ++i) {
             const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
             const double tx = fx[i] - x0f, ty = fy[i] - y0f;
@@ -199,6 +191,46 @@ kernel::SumsFn kernel_fn() {
 }
 
 }  // namespace
+
+kernel::MirrorRowFn kernel::mirror_row_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::mirror_row_avx512;
+        case Isa::Avx2: return kernel::mirror_row_avx2;
+#endif
+        default: return kernel::mirror_row_baseline;
+    }
+}
+
+kernel::IrrHorizonFn kernel::irr_horizon_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::irr_horizon_avx512;
+        case Isa::Avx2: return kernel::irr_horizon_avx2;
+#endif
+        default: return kernel::irr_horizon_baseline;
+    }
+}
+
+kernel::IrrSumFn kernel::irr_sum_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::irr_sum_avx512;
+        case Isa::Avx2: return kernel::irr_sum_avx2;
+#endif
+        default: return kernel::irr_sum_baseline;
+    }
+}
+
+kernel::Sh9RowFn kernel::sh9_row_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::sh9_row_avx512;
+        case Isa::Avx2: return kernel::sh9_row_avx2;
+#endif
+        default: return kernel::sh9_row_baseline;
+    }
+}
 
 const char* specular_kernel_isa() { return kIsaNames[isa_choice().load()]; }
 

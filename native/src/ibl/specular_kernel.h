@@ -1,4 +1,7 @@
-// The hierarchical specular sum's inner loop (specular.cpp), built once per
+// The hierarchical specular sum's inner loop (specular.cpp), the SH9
+// projection's row sums (source.cpp), mip 0's lat-long coordinates
+// (specular_mirror) and the irradiance's cosine sums (irradiance.cpp),
+// built once per
 // instruction set in its own translation unit (specular_kernel_*.cpp, each
 // compiled with its own -m flags) and chosen at run time: the library itself
 // is built for the baseline x86-64 and runs on any CPU.
@@ -30,6 +33,47 @@ void sums_avx2(const float* const* fields, size_t count, int lobes, const float*
                double (*num)[3]);
 void sums_avx512(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny, float nz,
                  double (*num)[3]);
+
+// One lat-long row's radiance-weighted longitude integrals for the SH9
+// projection (source.cpp): t[c][k] = sum over x of row[3 x + c] wl[k][x],
+// for the six longitude terms k, in fixed lanes (the same order for every
+// instruction set; only FMA rounding differs).
+using Sh9RowFn = void (*)(const float* row, int width, const double* const* wl, double (*t)[6]);
+void sh9_row_baseline(const float* row, int width, const double* const* wl, double (*t)[6]);
+void sh9_row_avx2(const float* row, int width, const double* const* wl, double (*t)[6]);
+void sh9_row_avx512(const float* row, int width, const double* const* wl, double (*t)[6]);
+
+// Lat-long coordinates of a cube face row's texel centres, in source texel
+// units as latlong_bilinear takes them (fx = u w - 0.5 with u wrapped to
+// [0, 1), fy = (1 - v) h - 0.5): frame = the face's ma, s, t (engine space,
+// 9 doubles), b = the row's t coordinate in (-1, 1), n texels.
+using MirrorRowFn = void (*)(const double* frame, double b, int n, int w, int h, double* fx, double* fy);
+void mirror_row_baseline(const double* frame, double b, int n, int w, int h, double* fx, double* fy);
+void mirror_row_avx2(const double* frame, double b, int n, int w, int h, double* fx, double* fy);
+void mirror_row_avx512(const double* frame, double b, int n, int w, int h, double* fx, double* fy);
+MirrorRowFn mirror_row_fn();
+
+// The irradiance's groups wholly on one side of n's horizon (irradiance.cpp):
+// whole[p] = 1 where |n.c_p| > sin_radius[p], else 0, for p < count.
+using IrrHorizonFn = void (*)(const float* cx, const float* cy, const float* cz, const float* sin_radius,
+                              size_t count, float nx, float ny, float nz, float* whole);
+// And their cosine sum: sum over p < count of whole[p] max(0, n.(x, y, z)_p),
+// count a multiple of 16, in 16 float lanes within blocks of 256, double
+// across blocks (the same order for every instruction set).
+using IrrSumFn = double (*)(const float* x, const float* y, const float* z, const float* whole, size_t count,
+                            float nx, float ny, float nz);
+void irr_horizon_baseline(const float*, const float*, const float*, const float*, size_t, float, float, float, float*);
+void irr_horizon_avx2(const float*, const float*, const float*, const float*, size_t, float, float, float, float*);
+void irr_horizon_avx512(const float*, const float*, const float*, const float*, size_t, float, float, float, float*);
+double irr_sum_baseline(const float*, const float*, const float*, const float*, size_t, float, float, float);
+double irr_sum_avx2(const float*, const float*, const float*, const float*, size_t, float, float, float);
+double irr_sum_avx512(const float*, const float*, const float*, const float*, size_t, float, float, float);
+IrrHorizonFn irr_horizon_fn();
+IrrSumFn irr_sum_fn();
+
+// These for the instruction set the specular kernel runs with
+// (specular_kernel_isa(), IBLBAKE_ISA).
+Sh9RowFn sh9_row_fn();
 
 }  // namespace kernel
 }  // namespace iblbake

@@ -1,3 +1,5 @@
-// The specular kernel built for avx2 (flags in native/CMakeLists.txt).
+// The specular kernel and the row kernels built for avx2 (flags in native/CMakeLists.txt).
 #define IBLBAKE_KERNEL_NAME sums_avx2
 #include "specular_kernel_impl.h"
+#define IBLBAKE_ISA_SUFFIX avx2
+#include "row_kernels_impl.h"

@@ -23,7 +23,18 @@ public:
     virtual ~LutCache() = default;
     virtual std::optional<Image> load(const std::string& key) = 0;
     virtual void store(const std::string& key, const Image& lut) = 0;
+    // A LUT's file as a writer encoded it (encoded_lut_key()): copied to `to`
+    // when cached (false: not cached, `to` untouched), stored from `from`.
+    // Copying the bytes is cheaper than encoding the table again (a zip
+    // float EXR of 512 x 512 costs about 50 ms of CPU). Default: no such cache.
+    virtual bool copy_encoded(const std::string& /*key*/, const std::filesystem::path& /*to*/) { return false; }
+    virtual void store_encoded(const std::string& /*key*/, const std::filesystem::path& /*from*/) {}
 };
+
+// The key of a LUT's encoded file: its pixels' sha256 and `encoding` (which
+// names the container, the pixel type and the writer's version), so a file
+// is only ever reused for the very same table written the same way.
+std::string encoded_lut_key(const Image& lut, const std::string& encoding);
 
 // Raw float files (<key>.lut) in a folder, read back in one call; writes are
 // atomic (temporary file, then rename); unreadable, truncated or foreign
@@ -33,6 +44,10 @@ public:
     explicit FileLutCache(std::filesystem::path dir) : dir_(std::move(dir)) {}
     std::optional<Image> load(const std::string& key) override;
     void store(const std::string& key, const Image& lut) override;
+    // <key>.enc: a magic, the sha256 of the bytes, the bytes; a damaged
+    // entry is a miss (and is replaced by the next store_encoded()).
+    bool copy_encoded(const std::string& key, const std::filesystem::path& to) override;
+    void store_encoded(const std::string& key, const std::filesystem::path& from) override;
     const std::filesystem::path& dir() const { return dir_; }
     // $IBLBAKE_CACHE_DIR, else $XDG_CACHE_HOME/iblbake, else ~/.cache/iblbake.
     static std::filesystem::path default_dir();

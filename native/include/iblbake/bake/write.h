@@ -58,9 +58,14 @@ void write_preview(const std::string& path, const BakeResult& r);
 // `progress` ("writing", 1.0) is polled between bands of rows once the bake
 // is computed (in finish()), from any thread, one call at a time; false, or
 // an exception from it, cancels the write and leaves `outdir` as it was.
+class LutCache;
+
 class BakeWriter : public OutputSink {
 public:
-    BakeWriter(const std::filesystem::path& outdir, const WriteOptions& wo, const ProgressFn& progress = {});
+    // `lut_cache`, when given, also keeps the LUT's encoded files: a bake
+    // whose LUT was written before copies the bytes instead of encoding them.
+    BakeWriter(const std::filesystem::path& outdir, const WriteOptions& wo, const ProgressFn& progress = {},
+               LutCache* lut_cache = nullptr);
     ~BakeWriter() override;
     BakeWriter(const BakeWriter&) = delete;
     BakeWriter& operator=(const BakeWriter&) = delete;
@@ -82,8 +87,9 @@ private:
 
 // Write every output and manifest.json into `outdir`, atomically (a
 // BakeWriter handed everything at once). The manifest's `files` records
-// each file's size and sha256; `progress` as BakeWriter's. Returns the manifest.
+// each file's size and sha256; `progress` and `lut_cache` as BakeWriter's. Returns the manifest.
 nlohmann::json write_bake(const BakeResult& r, const std::filesystem::path& outdir, const BakeOptions& bo,
-                          const WriteOptions& wo, const SourceInfo& src, const ProgressFn& progress = {});
+                          const WriteOptions& wo, const SourceInfo& src, const ProgressFn& progress = {},
+                          LutCache* lut_cache = nullptr);
 
 }  // namespace iblbake
