@@ -2,12 +2,13 @@
 // irradiance's cosine sums (specular_kernel.h), included by one translation
 // unit per instruction set (specular_kernel_*.cpp) with IBLBAKE_ISA_SUFFIX
 // naming the functions it defines (sh9_row_<suffix>, ...); nothing else
-// here has external linkage (atan2 is this file's own copy of
-// math/fast_math.h's atan2_vec, so no inline function built with these
-// flags can be picked by the linker for another unit).
+// here has external linkage (math/fast_math.h's atan2_vec is static, so
+// each unit has its own copy: no inline function built with these flags can
+// be picked by the linker for another unit).
 #include <cmath>
 #include <cstddef>
 
+#include "iblbake/math/fast_math.h"
 #include "specular_kernel.h"
 
 #define IBLBAKE_ROW_KERNEL_CAT(a, b) a##_##b
@@ -40,28 +41,6 @@ void IBLBAKE_ROW_KERNEL(sh9_row)(const float* row, int width, const double* cons
         }
 }
 
-namespace {
-
-double atan2_row(double y, double x) {
-    const double ax = std::fabs(x), ay = std::fabs(y);
-    const double hi = ax > ay ? ax : ay, lo = ax > ay ? ay : ax;
-    const double a = hi > 0.0 ? lo / hi : 0.0;
-    const bool mid = a > 0.66;
-    const double t = mid ? (a - 1.0) / (a + 1.0) : a;
-    const double z = t * t;
-    const double p = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z - 7.500855792314704667340e1) * z -
-                      1.228866684490136173410e2) * z - 6.485021904942025371773e1;
-    const double q = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z + 4.328810604912902668951e2) *
-                      z + 4.853903996359136964868e2) * z + 1.945506571482613964425e2;
-    double r = t + t * z * p / q;
-    r += mid ? 0.78539816339744830962 + 0.5 * 6.123233995736765886130e-17 : 0.0;
-    r = ay > ax ? 1.57079632679489661923 - r : r;
-    r = x < 0.0 ? 3.14159265358979323846 - r : r;
-    return y < 0.0 ? -r : r;
-}
-
-}  // namespace
-
 void IBLBAKE_ROW_KERNEL(mirror_row)(const double* frame, double b, int n, int w, int h, double* fx, double* fy) {
     constexpr double kPiD = 3.14159265358979323846;
     for (int i = 0; i < n; ++i) {
@@ -70,8 +49,8 @@ void IBLBAKE_ROW_KERNEL(mirror_row)(const double* frame, double b, int n, int w,
                      ez = frame[2] + frame[5] * a + frame[8] * b;
         // Blender (x, y, z) = (ex, -ez, ey); the length cancels in both angles.
         const double bx = ex, by = -ez, bz = ey;
-        const double u = 0.5 - atan2_row(by, bx) * (0.5 / kPiD);
-        const double v = 0.5 + atan2_row(bz, std::sqrt(bx * bx + by * by)) * (1.0 / kPiD);
+        const double u = 0.5 - atan2_vec(by, bx) * (0.5 / kPiD);
+        const double v = 0.5 + atan2_vec(bz, std::sqrt(bx * bx + by * by)) * (1.0 / kPiD);
         fx[i] = (u - std::floor(u)) * w - 0.5;
         fy[i] = (1.0 - v) * h - 0.5;
     }

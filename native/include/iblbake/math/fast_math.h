@@ -25,8 +25,11 @@ inline float fast_acos(float x) {
 // vectorise: Cephes' atan (a rational function of degree 9 / 10 after
 // reduction to [0, 0.66] or through pi/4 + atan((a - 1) / (a + 1))), on
 // a = min / max of |x|, |y|, then the quadrant. Within 2 ulp of std::atan2
-// (tests/native/test_geometry.cpp); (0, 0) gives 0.
-inline double atan2_vec(double y, double x) {
+// (tests/native/test_geometry.cpp); (0, 0) gives 0. Internal linkage
+// (static): the row kernels built once per instruction set use it, and each
+// unit must keep its own copy (an inline function's one shared copy could
+// come from the AVX-512 unit).
+static inline double atan2_vec(double y, double x) {
     const double ax = std::fabs(x), ay = std::fabs(y);
     const double hi = ax > ay ? ax : ay, lo = ax > ay ? ay : ax;
     const double a = hi > 0.0 ? lo / hi : 0.0;
