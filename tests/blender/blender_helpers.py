@@ -43,6 +43,16 @@ def run_blender(args, timeout=600):
                           env=blender_env(), timeout=timeout)
 
 
+# Blender's own studio HDRI, and the headless script the tests drive.
+FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
+BAKE_WORLD = os.path.join(ROOT, "blender_scripts", "bake_world.py")
+
+
+def bake_world(*args):
+    """blender_scripts/bake_world.py -- ARGS in headless Blender."""
+    return run_blender(["--python", BAKE_WORLD, "--", *args])
+
+
 @pytest.fixture
 def case(tmp_path):
     """case(name, **params) -> (result dict, work folder)."""

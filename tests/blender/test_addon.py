@@ -1,20 +1,14 @@
 """The Blender add-on in headless Blender (see cases.py for the scenes)."""
-import json
 import os
 import subprocess
 
 import numpy as np
 import pytest
 
-from blender_helpers import BLENDER, ROOT, blender_version, manifest, read, run_blender, sample_cross
+from blender_helpers import (BAKE_WORLD, BLENDER, FOREST, ROOT, bake_world, blender_version, manifest, read,
+                             run_blender, sample_cross)
 
-FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
-SCRIPT = os.path.join(ROOT, "blender_scripts", "bake_world.py")
 CLI = os.environ.get("IBLBAKE_CLI", os.path.join(ROOT, "build", "native", "iblbake"))
-
-
-def bake_world(*args):
-    return run_blender(["--python", SCRIPT, "--", *args])
 
 
 def test_hdri_world_bakes_like_the_cli(tmp_path):
@@ -189,7 +183,7 @@ def test_batch_over_blend_files_and_images(case, tmp_path):
     assert manifest(out / "forest")["blender"]["image"]["name"] == "forest.exr"
     assert not (out / "missing").exists()
     # The open-file form: blender -b file.blend --python bake_world.py -- --out DIR
-    p = run_blender([blend, "--python", SCRIPT, "--", "--out", str(tmp_path / "one"), "--face-size", "16"])
+    p = run_blender([blend, "--python", BAKE_WORLD, "--", "--out", str(tmp_path / "one"), "--face-size", "16"])
     assert p.returncode == 0, p.stdout + p.stderr
     assert manifest(tmp_path / "one")["blender"]["blend_file"] == blend
 

@@ -1,16 +1,9 @@
 """bake_world.py --preset in headless Blender: the presets' folders, the
 content hash, one-line failures."""
-import os
 
-from blender_helpers import ROOT, manifest, run_blender
+from blender_helpers import FOREST, bake_world, manifest
 
-FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
-SCRIPT = os.path.join(ROOT, "blender_scripts", "bake_world.py")
 OPTS = ["--face-size", "32", "--irradiance-size", "8", "--lut-size", "32"]
-
-
-def bake_world(*args):
-    return run_blender(["--python", SCRIPT, "--", *args])
 
 
 def test_bake_world_presets(tmp_path):

@@ -1,20 +1,12 @@
 """Issue 15 in headless Blender: bake_world.py with hostile input (D2, D3,
 D13, D14, D17)."""
 import json
-import os
-import shutil
 
 import pytest
 
-from blender_helpers import ROOT, run_blender
+from blender_helpers import FOREST, bake_world
 
-FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
-SCRIPT = os.path.join(ROOT, "blender_scripts", "bake_world.py")
 SMALL = ["--face-size", "16", "--irradiance-size", "8", "--lut-size", "16"]
-
-
-def bake_world(*args):
-    return run_blender(["--python", SCRIPT, "--", *args])
 
 
 def error_lines(p):

@@ -59,6 +59,17 @@ function waitReady(tex) {
   });
 }
 
+// One frame of the scene, read back from the RGBA16F drawing buffer as float.
+async function renderAndRead() {
+  await scene.whenReadyAsync();
+  scene.render();
+  gl.finish();
+  const px = new Float32Array(size * size * 4);
+  gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
+  gl.readPixels(0, 0, size, size, gl.RGBA, gl.FLOAT, px);
+  return px;
+}
+
 const api = {
   init,
   // kind 'env': our .env; kind 'exr': Babylon's own prefiltering of the lat-long EXR.
@@ -110,12 +121,7 @@ const api = {
       fragmentSource: `precision highp float; varying vec3 vN; varying vec3 vP; void main() { gl_FragColor = vec4(normalize(vN), vP.z); }`,
     }, { attributes: ['position', 'normal'], uniforms: ['world', 'worldViewProjection'] });
     sphere.material = mat;
-    await scene.whenReadyAsync();
-    scene.render();
-    gl.finish();
-    const px = new Float32Array(size * size * 4);
-    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
-    gl.readPixels(0, 0, size, size, gl.RGBA, gl.FLOAT, px);
+    const px = await renderAndRead();
     mat.dispose();
     return f32ToBase64(px);
   },
@@ -127,12 +133,7 @@ const api = {
     mat.roughness = roughness;
     if (diffuse) { mat.metallicF0Factor = 0; }
     sphere.material = mat;
-    await scene.whenReadyAsync();
-    scene.render();
-    gl.finish();
-    const px = new Float32Array(size * size * 4);
-    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
-    gl.readPixels(0, 0, size, size, gl.RGBA, gl.FLOAT, px);
+    const px = await renderAndRead();
     const defines = String(mat.getEffect()?.defines || '');
     mat.dispose();
     return { glError: gl.getError(), pixels: f32ToBase64(px), defines };
