@@ -54,9 +54,9 @@ double median_seconds(int reps, const std::function<void()>& fn) {
     return t[t.size() / 2];
 }
 
-void write_f32(const std::string& path, const std::vector<float>& v) {
+void write_f32(const std::string& path, FloatSpan v) {
     std::ofstream f(path, std::ios::binary);
-    f.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(float)));
+    f.write(reinterpret_cast<const char*>(v.data), std::streamsize(v.size * sizeof(float)));
     if (!f) throw std::runtime_error("cannot write " + path);
 }
 

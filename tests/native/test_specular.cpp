@@ -315,7 +315,7 @@ TEST(Specular, EveryKernelIsaAgreesWithTheBaseline) {
         bool differs = false;
         for (size_t m = 1; m < r.specular.size(); ++m) {
             double worst = 0.0;
-            const std::vector<float>&a = r.specular[m].pixels, &b = base.specular[m].pixels;
+            const FloatBuffer &a = r.specular[m].pixels, &b = base.specular[m].pixels;
             for (size_t k = 0; k < a.size(); ++k) {
                 worst = std::max(worst, std::fabs(double(a[k]) - b[k]) / std::max(1e-3, double(std::fabs(b[k]))));
                 differs = differs || a[k] != b[k];

@@ -37,7 +37,7 @@ BakeOptions cheap(int face, int irradiance_size) {
 // Count of non-finite values in every output, SH included.
 size_t non_finite(const BakeResult& r) {
     size_t bad = 0;
-    auto scan = [&](const std::vector<float>& px) {
+    auto scan = [&](const FloatBuffer& px) {
         for (float v : px) bad += !std::isfinite(v);
     };
     if (r.irradiance) scan(r.irradiance->pixels);
@@ -84,7 +84,7 @@ double energy_error(const BakeResult& r, const Image& src) {
     return worst;
 }
 
-bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+bool same_bits(const FloatBuffer& a, const FloatBuffer& b) {
     return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 

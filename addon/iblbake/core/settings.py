@@ -11,7 +11,7 @@ LUT_SIZE = 512
 LUT_MODELS = ("karis", "height-correlated", "multiscatter")
 RENDER_WIDTH = 1024    # Cycles fallback: lat-long width (height is half)
 RENDER_SAMPLES = 16
-EPS = 0.4              # specular accuracy knob: the core's default (error ~ eps^3 to eps^4)
+EPS = 0.5              # specular accuracy knob: the core's default (error ~ eps^3 to eps^4)
 
 
 @dataclass

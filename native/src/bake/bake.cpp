@@ -209,12 +209,6 @@ void option_warnings(BakeResult& r, const BakeOptions& o) {
         r.warnings.push_back("every output is disabled: a written bake holds manifest.json alone");
 }
 
-bool all_finite(const std::vector<float>& v) {
-    for (const float x : v)
-        if (!std::isfinite(x)) return false;
-    return true;
-}
-
 // The last guard: nothing non-finite leaves a bake. A numpy source is read
 // in place without the GIL; one changed while it is read can put NaN in
 // the sums, and then the bake fails instead of writing them.
@@ -285,8 +279,8 @@ void BakeOptions::validate() const {
     check(irradiance_bins >= 2 && irradiance_bins <= 4096 && (irradiance_bins & (irradiance_bins - 1)) == 0,
           "irradiance_bins must be a power of two in 2..4096");
     check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.02 && hierarchical.eps <= 2.0,
-          "specular eps must be in 0.02..2 (the default 0.4 keeps every texel within about 0.3 %; error grows as eps^3 to eps^4)");
-    check(hierarchical.tile >= 1 && hierarchical.tile <= 256, "specular tile must be in 1..256");
+          "specular eps must be in 0.02..2 (the default 0.5 keeps every texel within about 0.4 %; error grows as eps^3 to eps^4)");
+    check(hierarchical.tile >= 0 && hierarchical.tile <= 256, "specular tile must be in 0..256 (0: automatic)");
     check(irradiance_exact_face >= 1 && irradiance_exact_face <= 4096, "irradiance_exact_face must be in 1..4096");
     check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
     check(max_hot >= 0 && max_hot <= 1 << 20, "max_hot must be in 0..1048576");
@@ -344,7 +338,12 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             r.warnings.push_back("the source is " + std::to_string(view.width) + " x " + std::to_string(view.height) +
                                  ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
         report("reading source", 0.0);
-        const SourceScan scan = scan_source(view);
+        // The scan, the SH9 projection and the hot split's row sums in one
+        // pass over the source; the last two are of the source as it is,
+        // used unless cleaning or the overflow guard changes it below.
+        const SourceSummary summary = summarize_source(view);
+        const ImageView scanned = view;
+        const SourceScan& scan = summary.scan;
         r.bad_input = scan.bad;
         if (o.strict && r.bad_input.any())
             throw BadInputError("source has " + std::to_string(r.bad_input.pixels) + " bad pixels (" +
@@ -384,7 +383,10 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         const ImageView integrand = resampled.width > 0 ? ImageView(resampled) : source;
         r.integration_width = integrand.width;
         r.integration_height = integrand.height;
-        r.sh9 = project_sh9(integrand);
+        // The summary describes the integrand when that is the source unchanged.
+        const bool summary_holds = !r.bad_input.any() && scale_exp == 0 && integrand.data == scanned.data &&
+                                   integrand.rows == scanned.rows;
+        r.sh9 = summary_holds ? summary.sh9 : project_sh9(integrand);
         // The mean is the constant band: L_00 = integral of L / (2 sqrt(pi)).
         for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
         clock.done("sh9");
@@ -399,7 +401,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         // at the largest float, counted) and SPEC's handed to the sink, which
         // may start writing them at once.
         size_t saturated = 0;
-        auto rescale = [&](std::vector<float>& px) {
+        auto rescale = [&](FloatBuffer& px) {
             if (scale_exp == 0) return;
             for (float& v : px) {
                 v = std::ldexp(v, scale_exp);
@@ -435,7 +437,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         for (const LevelJob& job : jobs) {
             if (job.roughness != 0.0) continue;
             report("specular", done);
-            Cubemap level(job.face_size);
+            Cubemap level(job.face_size, Uninitialized{});  // every texel written
             specular_mirror(level, source);
             finish(job, std::move(level), 1, "bilinear source lookup");
             mirrored = true;
@@ -445,7 +447,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         const bool need_split = want_irr || (r1 > 0.0 && fis);
         HotSplit split;
         if (need_split) {
-            split = split_hot(integrand, o.hot_threshold, o.max_hot);
+            split = split_hot(integrand, o.hot_threshold, o.max_hot, summary_holds ? &summary.hot : nullptr);
             r.hot_texels = split.hot.size();
             r.hot_threshold = split.threshold;
             r.hot_power_fraction = split.hot_power_fraction;
@@ -524,12 +526,13 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     // for an export that asked for it) before the rest of the
                     // chain is made and written.
                     if (o.extra.keep_source) r.source = std::move(*owned);
-                    std::vector<float>().swap(owned->pixels);
+                    FloatBuffer().swap(owned->pixels);
                     owned = nullptr;
                 }
                 if (group.size() > 1) {
                     // Levels at nearby roughness in one pass (shared bins and loads).
-                    std::vector<Cubemap> levels(group.size(), Cubemap(n));
+                    std::vector<Cubemap> levels;
+                    for (size_t k = 0; k < group.size(); ++k) levels.emplace_back(n, Uninitialized{});  // every texel written
                     std::vector<SpecularGroupTarget> targets;
                     for (size_t k = 0; k < group.size(); ++k) targets.push_back({&levels[k], jobs[group[k]].roughness});
                     const double bins = specular_hierarchical_group(targets, tree, o.hierarchical);
@@ -540,7 +543,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                                method_h + ", one pass for roughness " + with);
                     continue;
                 }
-                Cubemap level(n);
+                Cubemap level(n, Uninitialized{});  // every texel written
                 size_t samples = 0;
                 std::string method;
                 if (!fis) {

@@ -66,38 +66,40 @@ BadInputCounts sanitize(Image& img) {
     return scan.bad;
 }
 
-SourceScan scan_source(ImageView img) {
-    const int h = img.height, n = 3 * img.width;
-    std::vector<SourceScan> rows(h);
-    parallel_for(0, h, [&](int y) {
-        const float* row = img.at(0, y);
-        // Fast path, one vectorised unsigned max of the bits: finite values
-        // >= 0 order as their bits do and stay below Inf's 0x7f800000, while
-        // NaN, Inf and anything with the sign bit set (-0 included, which the
-        // slow path then keeps) land at or above it.
-        uint32_t top = 0;
-        for (int k = 0; k < n; ++k) {
-            uint32_t bits;
-            std::memcpy(&bits, row + k, sizeof(bits));
-            top = std::max(top, bits);
+namespace {
+
+// One row of scan_source into s.
+void scan_row(const float* row, int width, SourceScan& s) {
+    const int n = 3 * width;
+    // Fast path, one vectorised unsigned max of the bits: finite values
+    // >= 0 order as their bits do and stay below Inf's 0x7f800000, while
+    // NaN, Inf and anything with the sign bit set (-0 included, which the
+    // slow path then keeps) land at or above it.
+    uint32_t top = 0;
+    for (int k = 0; k < n; ++k) {
+        uint32_t bits;
+        std::memcpy(&bits, row + k, sizeof(bits));
+        top = std::max(top, bits);
+    }
+    if (top < 0x7f800000u) {
+        std::memcpy(&s.max_value, &top, sizeof(top));
+        return;
+    }
+    for (int x = 0; x < width; ++x) {
+        bool bad = false;
+        for (int k = 0; k < 3; ++k) {
+            const float v = row[3 * x + k];
+            if (std::isnan(v)) { ++s.bad.nan; bad = true; }
+            else if (std::isinf(v)) { ++s.bad.inf; bad = true; }
+            else if (v < 0.0f) { ++s.bad.negative; bad = true; }
+            else s.max_value = std::max(s.max_value, v);
         }
-        SourceScan& s = rows[y];
-        if (top < 0x7f800000u) {
-            std::memcpy(&s.max_value, &top, sizeof(top));
-            return;
-        }
-        for (int x = 0; x < img.width; ++x) {
-            bool bad = false;
-            for (int k = 0; k < 3; ++k) {
-                const float v = row[3 * x + k];
-                if (std::isnan(v)) { ++s.bad.nan; bad = true; }
-                else if (std::isinf(v)) { ++s.bad.inf; bad = true; }
-                else if (v < 0.0f) { ++s.bad.negative; bad = true; }
-                else s.max_value = std::max(s.max_value, v);
-            }
-            s.bad.pixels += bad;
-        }
-    });
+        s.bad.pixels += bad;
+    }
+}
+
+SourceScan combine_scans(const std::vector<SourceScan>& rows) {
+    const int h = int(rows.size());
     SourceScan total;
     for (int y = 0; y < h; ++y) {
         const SourceScan& s = rows[y];
@@ -109,6 +111,14 @@ SourceScan scan_source(ImageView img) {
         total.max_value = std::max(total.max_value, s.max_value);
     }
     return total;
+}
+
+}  // namespace
+
+SourceScan scan_source(ImageView img) {
+    std::vector<SourceScan> rows(img.height);
+    parallel_for(0, img.height, [&](int y) { scan_row(img.at(0, y), img.width, rows[y]); });
+    return combine_scans(rows);
 }
 
 ImageView sanitized_view(ImageView img, const SourceScan& scan, std::vector<float>& store,
@@ -179,45 +189,67 @@ void add_hat_product(Bin& b, const double v[3], const double* s0, const double* 
                      const double* c0, const double* c1, const double U[6]);
 }  // namespace
 
-HotSplit split_hot(ImageView img, double relative_threshold, int max_hot) {
+namespace {
+
+// Row y of hot_rows (float lanes, double across them), into `out`.
+void hot_row(const float* row, int w, int y, const LatLongTables& tab, HotRows& out) {
+    constexpr int kLanes = 16;
+    float sm[kLanes] = {}, sp[kLanes] = {}, top[kLanes] = {};
+    const int whole = w / kLanes * kLanes;
+    for (int x0 = 0; x0 < whole; x0 += kLanes)
+        for (int l = 0; l < kLanes; ++l) {
+            const float* px = row + size_t(x0 + l) * 3;
+            const float m = max3(px);
+            sm[l] += m;
+            sp[l] += px[0] + px[1] + px[2];
+            top[l] = std::max(top[l], m);
+        }
+    for (int x = whole; x < w; ++x) {
+        const float* px = row + size_t(x) * 3;
+        sm[0] += max3(px);
+        sp[0] += px[0] + px[1] + px[2];
+        top[0] = std::max(top[0], max3(px));
+    }
+    double s = 0.0, p = 0.0;
+    float t = 0.0f;
+    for (int l = 0; l < kLanes; ++l) {
+        s += sm[l];
+        p += sp[l];
+        t = std::max(t, top[l]);
+    }
+    out.mean[y] = s * tab.omega[y];
+    out.power[y] = p * tab.omega[y];
+    out.top[y] = t;
+}
+
+HotRows sized_hot_rows(int h) {
+    HotRows r;
+    r.mean.resize(h);
+    r.power.resize(h);
+    r.top.resize(h);
+    return r;
+}
+
+}  // namespace
+
+HotRows hot_rows(ImageView img) {
+    const LatLongTables tab(img.width, img.height);
+    HotRows r = sized_hot_rows(img.height);
+    parallel_for(0, img.height, [&](int y) { hot_row(img.at(0, y), img.width, y, tab, r); });
+    return r;
+}
+
+HotSplit split_hot(ImageView img, double relative_threshold, int max_hot, const HotRows* rows) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
     HotSplit out;
-
-    // Per row: the sums of the largest channel and of all channels (float
-    // lanes, double across them) and the row's largest channel, in one pass.
-    constexpr int kLanes = 16;
-    std::vector<double> row_mean(h), row_power(h);
-    std::vector<float> row_top(h);
-    parallel_for(0, h, [&](int y) {
-        const float* row = img.at(0, y);
-        float sm[kLanes] = {}, sp[kLanes] = {}, top[kLanes] = {};
-        const int whole = w / kLanes * kLanes;
-        for (int x0 = 0; x0 < whole; x0 += kLanes)
-            for (int l = 0; l < kLanes; ++l) {
-                const float* px = row + size_t(x0 + l) * 3;
-                const float m = max3(px);
-                sm[l] += m;
-                sp[l] += px[0] + px[1] + px[2];
-                top[l] = std::max(top[l], m);
-            }
-        for (int x = whole; x < w; ++x) {
-            const float* px = row + size_t(x) * 3;
-            sm[0] += max3(px);
-            sp[0] += px[0] + px[1] + px[2];
-            top[0] = std::max(top[0], max3(px));
-        }
-        double s = 0.0, p = 0.0;
-        float t = 0.0f;
-        for (int l = 0; l < kLanes; ++l) {
-            s += sm[l];
-            p += sp[l];
-            t = std::max(t, top[l]);
-        }
-        row_mean[y] = s * tab.omega[y];
-        row_power[y] = p * tab.omega[y];
-        row_top[y] = t;
-    });
+    HotRows own;
+    if (!rows) {
+        own = hot_rows(img);
+        rows = &own;
+    }
+    const std::vector<double>&row_mean = rows->mean, &row_power = rows->power;
+    const std::vector<float>& row_top = rows->top;
     double mean = 0.0, total_power = 0.0;
     for (int y = 0; y < h; ++y) { mean += row_mean[y]; total_power += row_power[y]; }
     mean /= 4.0 * kPi;
@@ -426,35 +458,74 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
     return out;
 }
 
-std::array<Sh9, 3> project_sh9(ImageView img) {
-    const int w = img.width, h = img.height;
-    const LatLongTables tab(w, h);
-    // The six longitude integrals per column, structure-of-arrays.
-    std::vector<double> wl[6];
-    for (auto& v : wl) v.resize(w);
-    for (int x = 0; x < w; ++x) {
-        const LonIntegrals& l = tab.lon[x];
-        wl[0][x] = l.p0; wl[1][x] = l.pc; wl[2][x] = l.ps;
-        wl[3][x] = l.pcc; wl[4][x] = l.pss; wl[5][x] = l.psc;
+namespace {
+
+// The SH9 projection row by row: row(y) is independent of every other row;
+// total() sums them in a fixed order (the same for any thread count).
+class Sh9Rows {
+public:
+    Sh9Rows(const LatLongTables& tab, int w, int h) : tab_(tab), w_(w), rows_(h), row_sums_(kernel::sh9_row_fn()) {
+        // The six longitude integrals per column, structure-of-arrays.
+        for (auto& v : wl_) v.resize(w);
+        for (int x = 0; x < w; ++x) {
+            const LonIntegrals& l = tab.lon[x];
+            wl_[0][x] = l.p0; wl_[1][x] = l.pc; wl_[2][x] = l.ps;
+            wl_[3][x] = l.pcc; wl_[4][x] = l.pss; wl_[5][x] = l.psc;
+        }
+        for (int k = 0; k < 6; ++k) wlp_[k] = wl_[k].data();
     }
-    const double* const wlp[6] = {wl[0].data(), wl[1].data(), wl[2].data(), wl[3].data(), wl[4].data(), wl[5].data()};
-    std::vector<std::array<Sh9, 3>> rows(h);
     // The basis integrals are linear in the longitude integrals, so a row's
     // projection is sh9_rect_integral of the radiance-weighted sums of them:
     // 18 dot products per row, in fixed lanes (kernel::sh9_row_fn, built for
-    // the CPU's vectors; the same order for any thread count).
-    const kernel::Sh9RowFn row_sums = kernel::sh9_row_fn();
-    parallel_for(0, h, [&](int y) {
+    // the CPU's vectors).
+    void row(const float* px, int y) {
         double t[3][6];
-        row_sums(img.at(0, y), w, wlp, t);
+        row_sums_(px, w_, wlp_, t);
         for (int c = 0; c < 3; ++c)
-            rows[y][c] = sh9_rect_integral(LonIntegrals{t[c][0], t[c][1], t[c][2], t[c][3], t[c][4], t[c][5]}, tab.lat[y]);
+            rows_[y][c] = sh9_rect_integral(LonIntegrals{t[c][0], t[c][1], t[c][2], t[c][3], t[c][4], t[c][5]}, tab_.lat[y]);
+    }
+    std::array<Sh9, 3> total() const {
+        std::array<Sh9, 3> sum{};
+        for (const auto& r : rows_)
+            for (int c = 0; c < 3; ++c)
+                for (int i = 0; i < 9; ++i) sum[c][i] += r[c][i];
+        return sum;
+    }
+
+private:
+    const LatLongTables& tab_;
+    int w_;
+    std::vector<double> wl_[6];
+    const double* wlp_[6];
+    std::vector<std::array<Sh9, 3>> rows_;
+    kernel::Sh9RowFn row_sums_;
+};
+
+}  // namespace
+
+std::array<Sh9, 3> project_sh9(ImageView img) {
+    const LatLongTables tab(img.width, img.height);
+    Sh9Rows sh(tab, img.width, img.height);
+    parallel_for(0, img.height, [&](int y) { sh.row(img.at(0, y), y); });
+    return sh.total();
+}
+
+SourceSummary summarize_source(ImageView img) {
+    const int w = img.width, h = img.height;
+    const LatLongTables tab(w, h);
+    Sh9Rows sh(tab, w, h);
+    SourceSummary out;
+    out.hot = sized_hot_rows(h);
+    std::vector<SourceScan> scans(h);
+    parallel_for(0, h, [&](int y) {
+        const float* row = img.at(0, y);
+        scan_row(row, w, scans[y]);
+        sh.row(row, y);
+        hot_row(row, w, y, tab, out.hot);
     });
-    std::array<Sh9, 3> total{};
-    for (const auto& r : rows)  // fixed order: the same sum for any thread count
-        for (int c = 0; c < 3; ++c)
-            for (int i = 0; i < 9; ++i) total[c][i] += r[c][i];
-    return total;
+    out.scan = combine_scans(scans);
+    out.sh9 = sh.total();
+    return out;
 }
 
 }  // namespace iblbake

@@ -73,9 +73,11 @@ void specular_mirror(Cubemap& dst, ImageView latlong) {
         for (int i = 0; i < n; ++i) {
             const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
             const double tx = fx[i] - x0f, ty = fy[i] - y0f;
-            int x0 = int(x0f) % w;
-            if (x0 < 0) x0 += w;
-            const int x1 = (x0 + 1) % w;
+            int x0 = int(x0f);  // within one period of [0, w): wrapped without a division
+            if (x0 >= w) x0 -= w;
+            else if (x0 < 0) x0 += w;
+            if (x0 < 0 || x0 >= w) x0 = ((x0 % w) + w) % w;
+            const int x1 = x0 + 1 == w ? 0 : x0 + 1;
             const int y0 = std::clamp(int(y0f), 0, h - 1), y1 = std::clamp(int(y0f) + 1, 0, h - 1);
             const float *pa = latlong.at(x0, y0), *pb = latlong.at(x1, y0), *pc = latlong.at(x0, y1),
                         *pd = latlong.at(x1, y1);
@@ -397,7 +399,8 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
     const kernel::SumsFn sums = kernel_fn();
     // Tiles of at most a quarter of the face: a tile as wide as the face
     // would see every bin as near and take them all at the finest level.
-    const int T = std::max(1, std::min(q.tile, n / 4));
+    const int tile = q.tile > 0 ? q.tile : n >= 512 ? 16 : 8;
+    const int T = std::max(1, std::min(tile, n / 4));
     const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
     std::vector<double> used(tiles, 0.0);
     parallel_for(0, tiles, [&](int tile) {

@@ -41,10 +41,6 @@ std::vector<float> encode_rgbm(const std::vector<float>& rgba, float exposure, f
     return out;
 }
 
-bool exceeds_half(const std::vector<float>& values) {
-    for (float v : values)
-        if (!(std::fabs(v) <= 65504.0f)) return true;
-    return false;
-}
+bool exceeds_half(FloatSpan values) { return any_beyond(values, 65504.0f); }
 
 }  // namespace iblbake

@@ -31,16 +31,16 @@ std::vector<uint8_t> encode_png8(int width, int height, int channels, const uint
     return detail::encode_png8_memory(width, height, channels, values, level);
 }
 
-void write_png16_fast(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    if (values.size() != size_t(width) * height * channels)
-        throw std::invalid_argument("write_png16_fast: " + std::to_string(values.size()) + " values for a " +
+void write_png16_fast(const std::string& path, int width, int height, int channels, FloatSpan values) {
+    if (values.size != size_t(width) * height * channels)
+        throw std::invalid_argument("write_png16_fast: " + std::to_string(values.size) + " values for a " +
                                     std::to_string(width) + " x " + std::to_string(height) + " x " +
                                     std::to_string(channels) + " image");
     try {
         detail::write_png_file_rows(
             path, width, height, channels, 16,
             [&](int y0, int rows, float* out) {
-                std::copy_n(values.data() + size_t(y0) * width * channels, size_t(rows) * width * channels, out);
+                std::copy_n(values.data + size_t(y0) * width * channels, size_t(rows) * width * channels, out);
             },
             1);
     } catch (const std::exception& e) {

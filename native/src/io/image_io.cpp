@@ -128,7 +128,7 @@ LoadedImage finish(RawPixels&& r) {
             w = dw, h = dh, ox = oy = 0;
         }
     }
-    std::vector<float> raw;
+    FloatBuffer raw;
     if (w == dw && h == dh && ox == 0 && oy == 0) {
         raw = std::move(r.data);
     } else {  // the lat-long spans the display window; pixels outside the data window are 0
@@ -293,10 +293,10 @@ LoadedImage read_image(const std::string& path) {
 
 namespace {
 // A whole interleaved buffer handed to a banded writer, rows y0 .. y0 + rows - 1 at a time.
-std::function<void(int, int, float*)> rows_of(const std::vector<float>& values, int width, int channels) {
+std::function<void(int, int, float*)> rows_of(FloatSpan values, int width, int channels) {
     const size_t row = size_t(width) * channels;
-    return [&values, row](int y0, int rows, float* out) {
-        std::copy(values.begin() + size_t(y0) * row, values.begin() + size_t(y0 + rows) * row, out);
+    return [values, row](int y0, int rows, float* out) {
+        std::copy(values.data + size_t(y0) * row, values.data + size_t(y0 + rows) * row, out);
     };
 }
 
@@ -326,9 +326,9 @@ void write_checked(const std::string& path, int width, int height, int channels,
 }
 }  // namespace
 
-void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
+void write_exr(const std::string& path, int width, int height, int channels, FloatSpan values,
                ExrPixel pixel) {
-    write_checked(path, width, height, channels, values.size(), rows_of(values, width, channels), [&](const Fill& f) {
+    write_checked(path, width, height, channels, values.size, rows_of(values, width, channels), [&](const Fill& f) {
         detail::write_exr_file_rows(path, width, height, channels, pixel == ExrPixel::Half, f);
     });
 }
@@ -340,8 +340,8 @@ void write_exr_rows(const std::string& path, int width, int height, int channels
     });
 }
 
-void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    write_checked(path, width, height, channels, values.size(), rows_of(values, width, channels),
+void write_png8(const std::string& path, int width, int height, int channels, FloatSpan values) {
+    write_checked(path, width, height, channels, values.size, rows_of(values, width, channels),
                   [&](const Fill& f) { detail::write_png_file_rows(path, width, height, channels, 8, f); });
 }
 
@@ -351,8 +351,8 @@ void write_png8_rows(const std::string& path, int width, int height, int channel
                   [&](const Fill& f) { detail::write_png_file_rows(path, width, height, channels, 8, f); });
 }
 
-void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values) {
-    write_checked(path, width, height, channels, values.size(), rows_of(values, width, channels),
+void write_png16(const std::string& path, int width, int height, int channels, FloatSpan values) {
+    write_checked(path, width, height, channels, values.size, rows_of(values, width, channels),
                   [&](const Fill& f) { detail::write_png_file_rows(path, width, height, channels, 16, f); });
 }
 

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "iblbake/image/image.h"
+
 namespace iblbake::io::detail {
 
 struct RawPixels {
@@ -16,7 +18,7 @@ struct RawPixels {
     bool is_float = true;                   // false: 8/16-bit integers normalised to [0, 1]
     std::string colorspace;                 // as the file declares it ("" if it does not)
     std::string format;                     // "openexr", "png", "hdr", ...
-    std::vector<float> data;                // width * height * channels
+    FloatBuffer data;                       // width * height * channels
 };
 
 // The OpenEXR reader and writer (exr_file.cpp) and the PNG writer (png_file.cpp); the writers take

@@ -84,7 +84,16 @@ struct HotSplit {
     double threshold = 0.0;
     double hot_power_fraction = 0.0;  // hot power / total power (luminance-free: sum of channels)
 };
-HotSplit split_hot(ImageView img, double relative_threshold, int max_hot);
+// Per row of a source, what the split needs first: the solid-angle weighted
+// sums of each texel's largest channel and of all channels, and the row's
+// largest channel.
+struct HotRows {
+    std::vector<double> mean, power;
+    std::vector<float> top;
+};
+HotRows hot_rows(ImageView img);
+// `rows`, when given, must be hot_rows(img) (computed in another pass).
+HotSplit split_hot(ImageView img, double relative_threshold, int max_hot, const HotRows* rows = nullptr);
 // The rest image, L minus what the hot texels gave.
 Image rest_image(ImageView img, const HotSplit& split);
 
@@ -129,6 +138,19 @@ void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, co
 // Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5):
 // every texel's exact basis integral (texel-constant radiance), in double.
 std::array<Sh9, 3> project_sh9(ImageView img);
+
+// scan_source, project_sh9 and hot_rows in one pass over the rows: each row
+// is read from memory once and used three times while in cache (the three
+// passes of a 400 MB source are memory-bound). The results are those of the
+// three functions; sh9 and hot rows describe the source as it is, so a
+// source the scan finds bad (or past the overflow guard) needs them again
+// once cleaned.
+struct SourceSummary {
+    SourceScan scan;
+    std::array<Sh9, 3> sh9;
+    HotRows hot;
+};
+SourceSummary summarize_source(ImageView img);
 
 
 }  // namespace iblbake

@@ -43,8 +43,11 @@ size_t specular_prefilter(Cubemap& dst, const CubePyramid& rest, const std::vect
                         double roughness, const SpecularQuality& q);
 
 struct HierarchicalQuality {
-    double eps = 0.4;  // a bin is used whole when its radius <= eps * the kernel's length scale there
-    int tile = 8;       // output texels share one traversal per tile x tile block
+    double eps = 0.5;  // a bin is used whole when its radius <= eps * the kernel's length scale there
+    // Output texels share one traversal per tile x tile block; 0: automatic,
+    // 8, or 16 on faces of 512 and more (where one traversal per 64 texels
+    // cost more than the finer bins a wider tile takes; measured).
+    int tile = 0;
     double finest_eps = 0.35;  // the finest bins' radius <= finest_eps * 2 alpha of the narrowest lobe
     double horizon = 0.05;     // bins that may straddle a texel's horizon: radius <= eps horizon / sqrt(D(45 deg) / Z)
 };

@@ -21,6 +21,6 @@ void encode_rgbm_in_place(float* rgba, size_t values, float exposure, float rang
 
 // Whether any value is beyond half float's range (65504) or not finite: for
 // RGB or RGBA buffers alike (alpha is 0 or 1).
-bool exceeds_half(const std::vector<float>& values);
+bool exceeds_half(FloatSpan values);
 
 }  // namespace iblbake

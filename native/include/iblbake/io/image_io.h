@@ -47,7 +47,7 @@ LoadedImage read_image(const std::string& path);
 enum class ExrPixel { Half, Float };
 // Zip-compressed EXR from an interleaved buffer of 3 (RGB) or 4 (RGBA)
 // channels. No time stamp, so equal pixels give equal files.
-void write_exr(const std::string& path, int width, int height, int channels, const std::vector<float>& values,
+void write_exr(const std::string& path, int width, int height, int channels, FloatSpan values,
                ExrPixel pixel);
 inline void write_exr(const std::string& path, const Image& img, ExrPixel pixel) {
     write_exr(path, img.width, img.height, 3, img.pixels, pixel);
@@ -57,12 +57,12 @@ inline void write_exr(const std::string& path, const Image& img, ExrPixel pixel)
 void write_exr_rows(const std::string& path, int width, int height, int channels, ExrPixel pixel,
                     const std::function<void(int y0, int rows, float* out)>& fill);
 // 8-bit RGBA PNG from already-encoded values in [0, 1].
-void write_png8(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
+void write_png8(const std::string& path, int width, int height, int channels, FloatSpan values);
 // The same, written in bands of rows that fill(y0, rows, out) supplies.
 void write_png8_rows(const std::string& path, int width, int height, int channels,
                      const std::function<void(int y0, int rows, float* out)>& fill);
 // 16-bit PNG from values in [0, 1].
-void write_png16(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
+void write_png16(const std::string& path, int width, int height, int channels, FloatSpan values);
 
 // An 8-bit PNG's bytes in memory from width * height * channels bytes (rows
 // top to bottom), with no gamma or colour chunk: the bytes are data (the
@@ -70,7 +70,7 @@ void write_png16(const std::string& path, int width, int height, int channels, c
 // zlib level 1 by default: several times faster than 6, for about 20 % more bytes.
 std::vector<uint8_t> encode_png8(int width, int height, int channels, const uint8_t* values, int level = 1);
 // write_png16 at zlib level 1 (the exported LUTs).
-void write_png16_fast(const std::string& path, int width, int height, int channels, const std::vector<float>& values);
+void write_png16_fast(const std::string& path, int width, int height, int channels, FloatSpan values);
 // Radiance HDR (RGBE; run-length scanlines of literal dumps) from an RGB float image (rows top to bottom).
 void write_hdr(const std::string& path, const Image& img);
 // RGBE of one colour, as Ward's float2rgbe (exposed for tests).
