@@ -7,6 +7,7 @@
 #include <functional>
 #include <atomic>
 #include <mutex>
+#include <map>
 #include <memory>
 
 #include <tbb/task_group.h>
@@ -269,6 +270,7 @@ struct BakeWriter::Impl {
     tbb::task_group tasks;
     std::mutex mutex;                                 // parts and error
     std::vector<std::pair<std::string, json>> parts;  // per file set, merged in name order
+    std::map<std::string, std::string> hashes;        // sha256 by path in the staging folder
     std::exception_ptr error;
     std::atomic<bool> aborted{false}, computed{false};
     std::mutex poll_mutex;
@@ -300,6 +302,7 @@ struct BakeWriter::Impl {
             json e = json::object();
             try {
                 job(e);
+                for (const auto& item : e.items()) hash(item.key());
             } catch (...) {
                 std::lock_guard<std::mutex> lock(mutex);
                 if (!error) error = std::current_exception();
@@ -308,6 +311,36 @@ struct BakeWriter::Impl {
             std::lock_guard<std::mutex> lock(mutex);
             parts.emplace_back(name, std::move(e));
         });
+    }
+
+    // A LUT's file: copied from the cache's copy for the same LUT and
+    // encoding when it has one, else written (and kept there).
+    void lut_file(const Image& lut, const char* encoding, const fs::path& path, const std::function<void()>& write) {
+        if (!lut_cache) return write();
+        const std::string key = encoded_lut_key(lut, encoding);
+        if (lut_cache->copy_encoded(key, path)) return;
+        write();
+        lut_cache->store_encoded(key, path);
+    }
+
+    // The sha256 of a file this writer has just finished (rel: its path in
+    // the staging folder), taken by the task that wrote it while the bytes
+    // are in the page cache, not one file after another at the end.
+    void hash(const std::string& rel) {
+        const fs::path p = staging.path() / rel;
+        std::error_code ec;
+        if (!fs::is_regular_file(p, ec)) return;
+        std::string h = io::sha256_file(p.string());
+        std::lock_guard<std::mutex> lock(mutex);
+        hashes[rel] = std::move(h);
+    }
+    // Every file under the folder rel, so.
+    void hash_tree(const std::string& rel) {
+        const fs::path root = staging.path();
+        std::error_code ec;
+        for (auto it = fs::recursive_directory_iterator(root / rel, ec); !ec && it != fs::recursive_directory_iterator();
+             it.increment(ec))
+            if (it->is_regular_file(ec)) hash(fs::relative(it->path(), root).generic_string());
     }
 };
 
@@ -338,11 +371,7 @@ void BakeWriter::lut(const Image& lut) {
         // The same table is written the same way by every bake with these
         // settings: its file comes from the cache when it can.
         auto cached = [&](const fs::path& path, const char* encoding, const std::function<void()>& write) {
-            if (!im.lut_cache) return write();
-            const std::string key = encoded_lut_key(lut, encoding);
-            if (im.lut_cache->copy_encoded(key, path)) return;
-            write();
-            im.lut_cache->store_encoded(key, path);
+            im.lut_file(lut, encoding, path, write);
         };
         if (im.wo.exr) {
             const fs::path p = dir / "brdf_lut.exr";
@@ -384,12 +413,16 @@ json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const Source
             e["preview.png"] = "srgb8";
         });
     const std::vector<PresetPlan> plans = plan_presets(bo, wo.presets);  // the jobs refer to it
-    const std::vector<ExportJob> exports = export_jobs(r, bo, plans, dir, "iblbake " IBLBAKE_VERSION);
+    // A preset's LUT file, like SPEC's, copied from the cache when it holds one.
+    const LutFileMaker lut_file = [&im](const Image& lut, const char* encoding, const fs::path& path,
+                                        const std::function<void()>& write) { im.lut_file(lut, encoding, path, write); };
+    const std::vector<ExportJob> exports = export_jobs(r, bo, plans, dir, "iblbake " IBLBAKE_VERSION, lut_file);
     std::vector<json> preset_parts(exports.size());
     for (size_t k = 0; k < exports.size(); ++k)
         im.run("~preset", [&im, &exports, &preset_parts, k](json&) {
             im.poll();
             preset_parts[k] = exports[k].run();
+            im.hash_tree(exports[k].preset);
         });
     wait();
     std::stable_sort(im.parts.begin(), im.parts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -407,16 +440,25 @@ json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const Source
     }
     // Every file's size and sha256: a skip check ("unchanged") can tell a
     // damaged or truncated output from the one written here.
-    json files = json::object();
+    // (Most were hashed by the tasks that wrote them; the rest here, on
+    // every core.)
+    std::vector<std::pair<std::string, uintmax_t>> listed;
     std::error_code ec;
     for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
          it.increment(ec)) {
         if (!it->is_regular_file()) continue;
-        im.poll();
-        const std::string rel = fs::relative(it->path(), dir).generic_string();
-        files[rel] = {{"bytes", it->file_size()}, {"sha256", io::sha256_file(it->path().string())}};
+        listed.emplace_back(fs::relative(it->path(), dir).generic_string(), it->file_size());
     }
     if (ec) throw std::runtime_error("cannot list the files written: " + ec.message());
+    im.poll();
+    std::vector<std::string> sums(listed.size());
+    parallel_for(0, int(listed.size()), [&](int k) {
+        const auto known = im.hashes.find(listed[k].first);
+        sums[k] = known != im.hashes.end() ? known->second : io::sha256_file((dir / listed[k].first).string());
+    });
+    json files = json::object();
+    for (size_t k = 0; k < listed.size(); ++k)
+        files[listed[k].first] = {{"bytes", listed[k].second}, {"sha256", sums[k]}};
     manifest["files"] = files;
     {
         std::ofstream f(dir / "manifest.json");

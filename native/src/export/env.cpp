@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "iblbake/export/container.h"
+#include "iblbake/ibl/parallel.h"
 #include "iblbake/io/image_io.h"
 
 namespace iblbake {
@@ -91,27 +92,33 @@ Encoded encode_env(const CubeChain& chain, const EncodeOptions& o) {
                                     std::to_string(chain.levels.size()));
     if (!o.polynomial) throw std::invalid_argument("a Babylon .env needs its irradiance polynomial");
     Encoded e;
-    std::vector<std::vector<uint8_t>> images;
-    std::vector<uint8_t> rgba;
-    for (const Cubemap* c : chain.levels) {
-        const size_t texels = size_t(c->size) * c->size;
-        rgba.resize(texels * 4);
-        for (int face = 0; face < 6; ++face) {
-            for (int j = 0; j < c->size; ++j) {
-                const RowSource row = mirrored_row(*c, chain.mirror, face, j);
-                // Babylon stores each face bottom row first (its own writer and
-                // loader do; the engine tests measure it): row j is PNG row n - 1 - j.
-                uint8_t* out = rgba.data() + 4 * size_t(c->size - 1 - j) * c->size;
-                for (int i = 0; i < c->size; ++i) {
-                    const float* v = row.first + i * row.step;
-                    const float m = std::max({v[0], v[1], v[2]});
-                    e.stats.largest = std::max(e.stats.largest, m);
-                    e.stats.clamped += m > 255.0f;
-                    rgbd_encode(v, out + 4 * i);
-                }
+    // Every face of every level is its own PNG: encoded side by side.
+    const int faces = 6 * int(chain.levels.size());
+    std::vector<std::vector<uint8_t>> images(faces);
+    std::vector<PackStats> stats(faces);
+    parallel_for(0, faces, [&](int k) {
+        const Cubemap* c = chain.levels[k / 6];
+        const int face = k % 6;
+        std::vector<uint8_t> rgba(size_t(c->size) * c->size * 4);
+        PackStats& st = stats[k];
+        for (int j = 0; j < c->size; ++j) {
+            const RowSource row = mirrored_row(*c, chain.mirror, face, j);
+            // Babylon stores each face bottom row first (its own writer and
+            // loader do; the engine tests measure it): row j is PNG row n - 1 - j.
+            uint8_t* out = rgba.data() + 4 * size_t(c->size - 1 - j) * c->size;
+            for (int i = 0; i < c->size; ++i) {
+                const float* v = row.first + i * row.step;
+                const float m = std::max({v[0], v[1], v[2]});
+                st.largest = std::max(st.largest, m);
+                st.clamped += m > 255.0f;
+                rgbd_encode(v, out + 4 * i);
             }
-            images.push_back(io::encode_png8(c->size, c->size, 4, rgba.data()));
         }
+        images[k] = io::encode_png8(c->size, c->size, 4, rgba.data());
+    });
+    for (const PackStats& st : stats) {
+        e.stats.largest = std::max(e.stats.largest, st.largest);
+        e.stats.clamped += st.clamped;
     }
     const Polynomial& p = *o.polynomial;
     auto vec = [](const std::array<double, 3>& v) { return nlohmann::json::array({v[0], v[1], v[2]}); };

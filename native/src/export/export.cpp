@@ -73,7 +73,7 @@ std::string lod_text(const Preset& p, int levels, int n0) {
 }
 
 json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& plan, const fs::path& root,
-                const std::string& writer) {
+                const std::string& writer, const LutFileMaker& lut_file) {
     const Preset& p = plan.preset;
     const fs::path dir = root / p.name;
     fs::create_directories(dir);
@@ -154,9 +154,14 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
         for (const auto& [model, img] : r.extra_luts)
             if (model == p.lut_model) lut = &img;
         if (!lut) throw std::logic_error("the bake made no " + std::string(lut_model_name(p.lut_model)) + " LUT");
-        std::vector<float> v(lut->pixels.size());
-        for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut->pixels[k], 0.0f, 1.0f);
-        io::write_png16_fast((dir / "brdf_lut.png").string(), lut->width, lut->height, 3, v);
+        const fs::path path = dir / "brdf_lut.png";
+        const std::function<void()> write = [&] {
+            std::vector<float> v(lut->pixels.size());
+            for (size_t k = 0; k < v.size(); ++k) v[k] = std::clamp(lut->pixels[k], 0.0f, 1.0f);
+            io::write_png16_fast(path.string(), lut->width, lut->height, 3, v);
+        };
+        if (lut_file) lut_file(*lut, "png-unorm16-zlib1-v1", path, write);
+        else write();
         files["lut"] = "brdf_lut.png";
         written.push_back({{"file", "brdf_lut.png"}, {"encoding", "unorm16"}});
         m["lut"] = {{"file", "brdf_lut.png"},
@@ -188,10 +193,10 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
 }  // namespace
 
 std::vector<ExportJob> export_jobs(const BakeResult& r, const BakeOptions& bo, const std::vector<PresetPlan>& plans,
-                                   const fs::path& dir, const std::string& writer) {
+                                   const fs::path& dir, const std::string& writer, const LutFileMaker& lut_file) {
     std::vector<ExportJob> jobs;
     for (const PresetPlan& plan : plans)
-        jobs.push_back({plan.preset.name, [&r, &bo, &plan, dir, writer] { return run_preset(r, bo, plan, dir, writer); }});
+        jobs.push_back({plan.preset.name, [&r, &bo, &plan, dir, writer, lut_file] { return run_preset(r, bo, plan, dir, writer, lut_file); }});
     return jobs;
 }
 

@@ -76,18 +76,6 @@ float format_max(PixelFormat f) {
     }
 }
 
-uint16_t float_to_half(float v) {
-#if defined(__FLT16_MAX__) && (defined(__F16C__) || defined(__aarch64__))
-    // The hardware conversion (IEEE round to nearest even, as Imath's).
-    const _Float16 h = static_cast<_Float16>(v);
-    uint16_t bits;
-    std::memcpy(&bits, &h, 2);
-    return bits;
-#else
-    return Imath::half(v).bits();
-#endif
-}
-
 float half_to_float(uint16_t h) {
     Imath::half x;
     x.setBits(h);

@@ -16,10 +16,6 @@
 #define IBLBAKE_EXR_CONTEXT_INIT 1
 #endif
 
-#if defined(__x86_64__)
-#include <immintrin.h>
-#endif
-
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -30,6 +26,7 @@
 #include <thread>
 
 #include "iblbake/io/image_io.h"
+#include "iblbake/math/half.h"
 #include "raw_pixels.h"
 
 namespace iblbake::io::detail {
@@ -193,37 +190,6 @@ RawPixels read_exr(const std::string& path, uintmax_t file_size) {
     return out;
 }
 
-namespace {
-
-// Floats to half bits, rounded to nearest even as Imath's half(float) is:
-// eight at a time by the CPU's F16C instruction where it has one (the
-// conversion was the writer's largest cost after zlib), else by Imath.
-#if defined(__x86_64__)
-__attribute__((target("avx,f16c"))) void to_half_f16c(const float* in, uint16_t* out, size_t n) {
-    size_t k = 0;
-    for (; k + 8 <= n; k += 8)
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(out + k),
-                         _mm256_cvtps_ph(_mm256_loadu_ps(in + k), _MM_FROUND_TO_NEAREST_INT));
-    for (; k < n; ++k) out[k] = _cvtss_sh(in[k], _MM_FROUND_TO_NEAREST_INT);
-}
-#endif
-
-void to_half(const float* in, uint16_t* out, size_t n) {
-#if defined(__x86_64__)
-    static const bool f16c = [] {
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
-    }();
-    if (f16c) {
-        to_half_f16c(in, out, n);
-        return;
-    }
-#endif
-    for (size_t k = 0; k < n; ++k) out[k] = ::half(in[k]).bits();
-}
-
-}  // namespace
-
 void write_exr_file_rows(const std::string& path, int width, int height, int channels, bool half,
                          const std::function<void(int y0, int rows, float* out)>& fill) {
     Imf::Header header(width, height);
@@ -245,7 +211,7 @@ void write_exr_file_rows(const std::string& path, int width, int height, int cha
         fill(y0, rows, values.data());
         Imf::FrameBuffer fb;
         if (half) {
-            to_half(values.data(), halves.data(), row * rows);
+            floats_to_half(values.data(), halves.data(), row * rows);  // F16C where the CPU has it
             const size_t xs = sizeof(uint16_t) * channels, ys = xs * width;
             char* base = reinterpret_cast<char*>(halves.data()) - ptrdiff_t(y0) * ptrdiff_t(ys);
             for (int c = 0; c < channels; ++c)

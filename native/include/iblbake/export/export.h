@@ -21,8 +21,14 @@ struct ExportJob {
     std::string preset;
     std::function<nlohmann::json()> run;
 };
+// How a LUT file is made: `write` writes it to `path`; a writer with a
+// cache may copy the file it kept for the same LUT and `encoding` instead
+// (BakeWriter's LUT cache). Empty: always written.
+using LutFileMaker = std::function<void(const Image& lut, const char* encoding, const std::filesystem::path& path,
+                                        const std::function<void()>& write)>;
 std::vector<ExportJob> export_jobs(const BakeResult& r, const BakeOptions& bo, const std::vector<PresetPlan>& plans,
-                                   const std::filesystem::path& dir, const std::string& writer);
+                                   const std::filesystem::path& dir, const std::string& writer,
+                                   const LutFileMaker& lut_file = {});
 
 // The cube of (face size, roughness) in the result: a SPEC level or an extra
 // one. Throws std::logic_error when the bake did not make it.

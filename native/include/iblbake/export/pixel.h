@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "iblbake/export/preset.h"
+#include "iblbake/math/half.h"
 
 namespace iblbake {
 
@@ -28,7 +29,7 @@ void pack_texels(const float* rgb, size_t count, PixelFormat f, uint8_t* out, Pa
 float format_max(PixelFormat f);
 
 // Single values (exposed for tests).
-uint16_t float_to_half(float v);  // round to nearest even, IEEE binary16
+// float_to_half (round to nearest even, IEEE binary16): iblbake/math/half.h
 float half_to_float(uint16_t h);
 uint32_t pack_e5b9g9r9(float r, float g, float b);  // EXT_texture_shared_exponent
 void unpack_e5b9g9r9(uint32_t v, float out[3]);

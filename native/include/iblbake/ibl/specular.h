@@ -48,7 +48,10 @@ struct HierarchicalQuality {
     // 8, or 16 on faces of 512 and more (where one traversal per 64 texels
     // cost more than the finer bins a wider tile takes; measured).
     int tile = 0;
-    double finest_eps = 0.35;  // the finest bins' radius <= finest_eps * 2 alpha of the narrowest lobe
+    // The finest bins' radius <= finest_eps * 2 alpha of the narrowest lobe
+    // (0.35 cost a tree of 4x the bins for a level at r = 0.1 and moved its
+    // worst texel only from 0.29 % to 0.22 % on sunset.exr; measured).
+    double finest_eps = 0.5;
     double horizon = 0.05;     // bins that may straddle a texel's horizon: radius <= eps horizon / sqrt(D(45 deg) / Z)
 };
 

@@ -1,0 +1,52 @@
+#include "iblbake/math/half.h"
+
+#include <Imath/half.h>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
+namespace iblbake {
+
+namespace {
+
+#if defined(__x86_64__)
+__attribute__((target("avx,f16c"))) void floats_to_half_f16c(const float* in, uint16_t* out, size_t n) {
+    size_t k = 0;
+    for (; k + 8 <= n; k += 8)
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(out + k),
+                         _mm256_cvtps_ph(_mm256_loadu_ps(in + k), _MM_FROUND_TO_NEAREST_INT));
+    for (; k < n; ++k) out[k] = _cvtss_sh(in[k], _MM_FROUND_TO_NEAREST_INT);
+}
+
+__attribute__((target("f16c"))) uint16_t float_to_half_f16c(float v) { return _cvtss_sh(v, _MM_FROUND_TO_NEAREST_INT); }
+
+bool has_f16c() {
+    static const bool f16c = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+    }();
+    return f16c;
+}
+#endif
+
+}  // namespace
+
+uint16_t float_to_half(float v) {
+#if defined(__x86_64__)
+    if (has_f16c()) return float_to_half_f16c(v);
+#endif
+    return Imath::half(v).bits();
+}
+
+void floats_to_half(const float* in, uint16_t* out, size_t n) {
+#if defined(__x86_64__)
+    if (has_f16c()) {
+        floats_to_half_f16c(in, out, n);
+        return;
+    }
+#endif
+    for (size_t k = 0; k < n; ++k) out[k] = Imath::half(in[k]).bits();
+}
+
+}  // namespace iblbake
