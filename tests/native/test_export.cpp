@@ -284,6 +284,35 @@ TEST(Pixel, HalfIsIeeeRoundToNearestEven) {
     }
 }
 
+// The block conversion (F16C on this CPU, else software) against OpenEXR's
+// half on every kind of value: ties, denormals, overflow, signs, Inf, NaN.
+TEST(Pixel, BlockHalfConversionMatchesImath) {
+    std::vector<float> v = {0.0f, -0.0f, 1.0f, -1.0f, 65504.0f, 65520.0f, 65519.0f, 1e6f, -1e6f,
+                            std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                            std::ldexp(1.0f, -24), std::ldexp(1.0f, -25), std::ldexp(3.0f, -26), std::ldexp(1.0f, -30),
+                            1.0f + std::ldexp(1.0f, -11), 1.0f + std::ldexp(3.0f, -11), 2049.0f, 2051.0f};
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> e(-30, 17);
+    std::uniform_int_distribution<uint32_t> bits;
+    for (int k = 0; k < 20000; ++k) v.push_back((k % 2 ? -1.0f : 1.0f) * std::exp2(e(rng)));
+    for (int k = 0; k < 2000; ++k) {  // any bit pattern, NaNs excluded (their payloads may differ)
+        const uint32_t b = bits(rng);
+        float f;
+        std::memcpy(&f, &b, 4);
+        if (!std::isnan(f)) v.push_back(f);
+    }
+    std::vector<uint16_t> out(v.size() + 3);  // odd lengths take the scalar tail
+    for (size_t n : {v.size(), size_t(7), size_t(1)}) {
+        std::fill(out.begin(), out.end(), uint16_t(0xDEAD));
+        floats_to_half(v.data(), out.data(), n);
+        for (size_t k = 0; k < n; ++k) ASSERT_EQ(out[k], Imath::half(v[k]).bits()) << v[k];
+        EXPECT_EQ(out[n], 0xDEAD);  // nothing past n written
+    }
+    const uint16_t nan = float_to_half(std::numeric_limits<float>::quiet_NaN());
+    EXPECT_EQ(nan & 0x7C00, 0x7C00);
+    EXPECT_NE(nan & 0x03FF, 0);
+}
+
 TEST(Pixel, E5B9G9R9FollowsTheSharedExponentSpec) {
     // (1, 1, 1): exponent 16 (bias 15, 9 mantissa bits), mantissas 256.
     EXPECT_EQ(pack_e5b9g9r9(1, 1, 1), 256u | 256u << 9 | 256u << 18 | 16u << 27);

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <tuple>
 #include <utility>
@@ -12,6 +13,70 @@
 #include "reference.h"
 
 using namespace iblbake;
+
+// The one-pass summary gives exactly what the three passes give, bad
+// texels and all (it describes the source as it is).
+TEST(Source, SummaryEqualsTheThreePasses) {
+    Image img = ref::random_smooth_source(301, 150, 3);
+    img.at(7, 9)[1] = std::numeric_limits<float>::quiet_NaN();
+    img.at(300, 149)[2] = -2.0f;
+    img.at(0, 0)[0] = std::numeric_limits<float>::infinity();
+    img.at(150, 75)[0] = 5e4f;  // a hot texel
+    const SourceSummary s = summarize_source(img);
+    const SourceScan scan = scan_source(img);
+    EXPECT_EQ(s.scan.bad.nan, 1u);
+    EXPECT_EQ(s.scan.bad.inf, 1u);
+    EXPECT_EQ(s.scan.bad.negative, 1u);
+    EXPECT_EQ(s.scan.bad.pixels, scan.bad.pixels);
+    EXPECT_EQ(s.scan.bad_rows, scan.bad_rows);
+    EXPECT_EQ(s.scan.max_value, scan.max_value);
+    const HotRows h = hot_rows(img);
+    for (int y = 0; y < img.height; ++y) {
+        EXPECT_EQ(std::memcmp(&s.hot.mean[y], &h.mean[y], sizeof(double)), 0) << y;  // NaN rows too
+        EXPECT_EQ(std::memcmp(&s.hot.power[y], &h.power[y], sizeof(double)), 0) << y;
+        EXPECT_EQ(std::memcmp(&s.hot.top[y], &h.top[y], sizeof(float)), 0) << y;
+    }
+    // On the cleaned source: SH9 and the split from the summary equal the
+    // standalone ones bit for bit.
+    sanitize(img);
+    const SourceSummary c = summarize_source(img);
+    const auto sh = project_sh9(img);
+    for (int ch = 0; ch < 3; ++ch)
+        for (int i = 0; i < 9; ++i) EXPECT_EQ(c.sh9[ch][i], sh[ch][i]);
+    const HotSplit a = split_hot(img, 16.0, 64), b = split_hot(img, 16.0, 64, &c.hot);
+    EXPECT_GT(a.hot.size(), 0u);
+    ASSERT_EQ(a.texels.size(), b.texels.size());
+    EXPECT_EQ(a.threshold, b.threshold);
+    for (size_t k = 0; k < a.texels.size(); ++k) {
+        EXPECT_EQ(a.texels[k].x, b.texels[k].x);
+        EXPECT_EQ(a.texels[k].y, b.texels[k].y);
+        for (int ch = 0; ch < 3; ++ch) EXPECT_EQ(a.hot[k].power[ch], b.hot[k].power[ch]);
+    }
+}
+
+// Zeros and the finiteness and range checks, across the parallel blocks.
+TEST(Source, BufferChecksFindOneBadValueAnywhere) {
+    const size_t n = (size_t(1) << 18) * 5 + 17;  // several blocks of each helper, and a tail
+    Image img(int(n / 3), 1);
+    for (float v : img.pixels) ASSERT_EQ(v, 0.0f);
+    Cubemap c(64);
+    for (float v : c.pixels) ASSERT_EQ(v, 0.0f);
+    EXPECT_TRUE(all_finite(img.pixels));
+    EXPECT_FALSE(any_beyond(img.pixels, 65504.0f));
+    for (size_t at : {size_t(0), n / 2, img.pixels.size() - 1}) {
+        img.pixels[at] = std::numeric_limits<float>::quiet_NaN();
+        EXPECT_FALSE(all_finite(img.pixels)) << at;
+        EXPECT_TRUE(any_beyond(img.pixels, 65504.0f)) << at;
+        img.pixels[at] = -std::numeric_limits<float>::infinity();
+        EXPECT_FALSE(all_finite(img.pixels)) << at;
+        img.pixels[at] = -65505.0f;
+        EXPECT_TRUE(all_finite(img.pixels)) << at;
+        EXPECT_TRUE(any_beyond(img.pixels, 65504.0f)) << at;
+        img.pixels[at] = 65504.0f;
+        EXPECT_FALSE(any_beyond(img.pixels, 65504.0f)) << at;
+        img.pixels[at] = 0.0f;
+    }
+}
 
 TEST(Source, SanitizeCountsAndZeroes) {
     Image img = ref::constant_source(4, 2, 1.0f);

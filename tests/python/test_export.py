@@ -324,3 +324,19 @@ def test_cli_presets_listing_and_six_preset_bake(tmp_path):
     r = run("bake", str(src), "-o", str(tmp_path / "bad"), "--preset", "three,unreal")
     assert r.returncode == 1 and "unknown preset 'unreal'" in r.stderr and r.stderr.count("\n") == 1
     assert not (tmp_path / "bad").exists()
+
+
+def test_manifest_hashes_every_file_it_lists(bake_dir):
+    """The writer hashes files in the tasks that wrote them: every listed file
+    exists, with the size and sha256 the manifest gives, and nothing written
+    is left out."""
+    import hashlib
+    out, res = bake_dir
+    files = json.loads((out / "manifest.json").read_text())["files"]
+    on_disk = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file() and p.name != "manifest.json"}
+    assert set(files) == on_disk
+    assert any("/" in f for f in files)  # the presets' folders are in it
+    for rel, entry in files.items():
+        data = (out / rel).read_bytes()
+        assert entry["bytes"] == len(data), rel
+        assert entry["sha256"] == hashlib.sha256(data).hexdigest(), rel

@@ -125,7 +125,18 @@ void pack_texels(const float* rgb, size_t count, PixelFormat f, uint8_t* out, Pa
     const size_t tb = texel_bytes(f);
     const float maxv = format_max(f);
     const float maxb = f == PixelFormat::R11g11b10f ? 64512.0f : maxv;
-    const uint16_t one_half = float_to_half(1.0f);
+    // RGBA16F: the cleaned, clamped values are gathered a block at a time and
+    // converted to half together (F16C where the CPU has it).
+    constexpr size_t kBlock = 256;
+    float rgba[4 * kBlock];
+    uint16_t halves[4 * kBlock];
+    size_t in_block = 0;
+    uint8_t* block_out = out;
+    auto flush = [&] {
+        floats_to_half(rgba, halves, 4 * in_block);
+        for (size_t k = 0; k < 4 * in_block; ++k) put16(block_out + 2 * k, halves[k]);
+        in_block = 0;
+    };
     for (size_t t = 0; t < count; ++t, rgb += step, out += tb) {
         float v[3];
         bool clamped = false;
@@ -140,10 +151,13 @@ void pack_texels(const float* rgb, size_t count, PixelFormat f, uint8_t* out, Pa
         }
         stats.clamped += clamped;
         switch (f) {
-            case PixelFormat::Rgba16f:
-                for (int c = 0; c < 3; ++c) put16(out + 2 * c, float_to_half(v[c]));
-                put16(out + 6, one_half);
+            case PixelFormat::Rgba16f: {
+                if (in_block == 0) block_out = out;
+                float* px = rgba + 4 * in_block;
+                px[0] = v[0], px[1] = v[1], px[2] = v[2], px[3] = 1.0f;
+                if (++in_block == kBlock) flush();
                 break;
+            }
             case PixelFormat::Rgba32f: {
                 const float px[4] = {v[0], v[1], v[2], 1.0f};
                 std::memcpy(out, px, 16);  // little-endian hosts (x86-64, arm64)
@@ -154,6 +168,7 @@ void pack_texels(const float* rgb, size_t count, PixelFormat f, uint8_t* out, Pa
             default: break;
         }
     }
+    if (in_block) flush();
 }
 
 }  // namespace iblbake
