@@ -1,6 +1,7 @@
 #include "iblbake/bake/bake.h"
 
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <chrono>
@@ -8,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <limits>
 
 #include "iblbake/bake/lut_cache.h"
@@ -201,6 +203,72 @@ void extra_lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     }
 }
 
+// The LUTs (SPEC's, handed to the sink, and the presets'), made beside the
+// rest of a bake: they depend on their settings alone, and loading one from
+// the cache (reading and checking a 3 MB file) at the end kept one core
+// waiting. Started at once; join() waits and rethrows its failure; a bake
+// that throws waits for it on the way out (nothing may still write into r).
+class LutTask {
+public:
+    LutTask(BakeResult& r, const BakeOptions& o, LutCache* cache, OutputSink* sink) {
+        if (!o.lut && o.extra.luts.empty()) return;
+        started_ = true;
+        group_.run([&r, &o, cache, sink, this] {
+            const auto t0 = std::chrono::steady_clock::now();
+            try {
+                if (o.lut) {
+                    lut_stage(r, o, cache);
+                    if (sink) sink->lut(*r.lut);
+                }
+                extra_lut_stage(r, o, cache);
+            } catch (...) {
+                error_ = std::current_exception();
+            }
+            seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        });
+    }
+    LutTask(const LutTask&) = delete;
+    LutTask& operator=(const LutTask&) = delete;
+    ~LutTask() {
+        if (started_) group_.wait();
+    }
+    // Seconds the LUTs took (on their own task); rethrows their failure.
+    double join() {
+        if (!started_) return 0.0;
+        group_.wait();
+        started_ = false;
+        if (error_) std::rethrow_exception(error_);
+        return seconds_;
+    }
+
+private:
+    tbb::task_group group_;
+    bool started_ = false;
+    std::exception_ptr error_;
+    double seconds_ = 0.0;
+};
+
+// Multiplies by 2^scale_exp (the overflow guard's way back); a value past
+// the float range saturates at the largest float. Returns how many did.
+size_t scale_back(FloatBuffer& px, int scale_exp) {
+    if (scale_exp == 0) return 0;
+    size_t saturated = 0;
+    for (float& v : px) {
+        v = std::ldexp(v, scale_exp);
+        if (std::isinf(v)) {
+            v = std::copysign(std::numeric_limits<float>::max(), v);
+            ++saturated;
+        }
+    }
+    return saturated;
+}
+
+// Waits for a task group on the way out of a scope that throws.
+struct GroupWait {
+    tbb::task_group& group;
+    ~GroupWait() { group.wait(); }
+};
+
 // Warnings about the options alone (the caller's first).
 void option_warnings(BakeResult& r, const BakeOptions& o) {
     r.warnings = o.warnings;
@@ -334,6 +402,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         auto advance = [&](double w) { done += w / w_total; };
 
         option_warnings(r, o);
+        LutTask luts(r, o, lut_cache, sink);
         if (view.width != 2 * view.height)
             r.warnings.push_back("the source is " + std::to_string(view.width) + " x " + std::to_string(view.height) +
                                  ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
@@ -401,16 +470,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         // at the largest float, counted) and SPEC's handed to the sink, which
         // may start writing them at once.
         size_t saturated = 0;
-        auto rescale = [&](FloatBuffer& px) {
-            if (scale_exp == 0) return;
-            for (float& v : px) {
-                v = std::ldexp(v, scale_exp);
-                if (std::isinf(v)) {
-                    v = std::copysign(std::numeric_limits<float>::max(), v);
-                    ++saturated;
-                }
-            }
-        };
+        auto rescale = [&](FloatBuffer& px) { saturated += scale_back(px, scale_exp); };
         size_t spec_jobs = 0;
         for (const LevelJob& j : jobs) spec_jobs += j.spec_level >= 0;
         r.specular.reserve(spec_jobs);  // the sink holds references into it
@@ -470,25 +530,48 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             clock.done("bin_tree");
         }
 
+        // The irradiance convolution runs beside the specular levels (it
+        // reads only the bins and the hot points; its own task filled the
+        // gaps the levels leave between them); joined below.
+        tbb::task_group irr_task;
+        const GroupWait irr_wait{irr_task};
+        std::exception_ptr irr_error;
+        double irr_seconds = 0.0;
+        size_t irr_saturated = 0;
         if (want_irr) {
             report("irradiance", done);
             const int bw = o.irradiance_bins, bh = o.irradiance_bins / 2;
+            // What reads the source is done here: the levels below may free it.
             if (irr_from_tree) remove_hot(irr_bins, bw, bh, integrand.width, integrand.height, split);
             else irr_bins = reduce_rest_to_bins(integrand, split, bw, bh);
-            const BinGroups groups = group_bins(irr_bins, bw, bh);
-            Cubemap irr(o.irradiance_size);
-            irradiance_convolve(irr, groups, split.hot, o.irradiance_exact_face);
-            rescale(irr.pixels);
-            if (o.irradiance) {
-                r.irradiance = std::move(irr);
-                if (sink) sink->cube("irradiance", *r.irradiance);
-            } else {
-                r.extra_irradiance = std::move(irr);
-            }
-            clock.done("irradiance");
-            advance(w_irr);
+            irr_task.run([&, bw, bh] {
+                const auto t0 = std::chrono::steady_clock::now();
+                try {
+                    const BinGroups groups = group_bins(irr_bins, bw, bh);
+                    Cubemap irr(o.irradiance_size);
+                    irradiance_convolve(irr, groups, split.hot, o.irradiance_exact_face);
+                    irr_saturated = scale_back(irr.pixels, scale_exp);
+                    if (o.irradiance) {
+                        r.irradiance = std::move(irr);
+                        if (sink) sink->cube("irradiance", *r.irradiance);
+                    } else {
+                        r.extra_irradiance = std::move(irr);
+                    }
+                } catch (...) {
+                    irr_error = std::current_exception();
+                }
+                irr_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            });
+            clock.done("irradiance_start");
         }
         if (!o.irradiance) skip("irradiance");
+        auto join_irradiance = [&] {
+            irr_task.wait();
+            if (irr_error) std::rethrow_exception(irr_error);
+            saturated += irr_saturated;
+            r.timings.emplace_back("irradiance", irr_seconds);  // its own time, beside the levels
+            advance(w_irr);
+        };
 
         if (r1 > 0.0) {
             report("specular", done);
@@ -558,19 +641,22 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             }
             clock.done("specular");
         }
+        if (want_irr) {
+            join_irradiance();
+            clock.done("irradiance_wait");  // what the bake waited for it after the levels
+        }
         if (o.specular) skip_levels(r, o);
         else skip("specular");
 
+        if (o.lut) report("brdf_lut", done);
+        const double lut_seconds = luts.join();
         if (o.lut) {
-            report("brdf_lut", done);
-            lut_stage(r, o, lut_cache);
-            if (sink) sink->lut(*r.lut);
-            clock.done("brdf_lut");
+            clock.done("brdf_lut_wait");                     // what the bake waited for it
+            r.timings.emplace_back("brdf_lut", lut_seconds);  // its own time, beside the rest
             advance(w_lut);
         } else {
             skip("brdf_lut");
         }
-        extra_lut_stage(r, o, lut_cache);
         // A source kept for an export that was not moved out above (not owned,
         // or never freed) is copied from the cleaned view.
         if (o.extra.keep_source && !r.source) {
