@@ -206,14 +206,18 @@ void extra_lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
 // The LUTs (SPEC's, handed to the sink, and the presets'), made beside the
 // rest of a bake: they depend on their settings alone, and loading one from
 // the cache (reading and checking a 3 MB file) at the end kept one core
-// waiting. Started at once; join() waits and rethrows its failure; a bake
-// that throws waits for it on the way out (nothing may still write into r).
+// waiting. start() runs them on their own task (once the source is freed,
+// so that the bake's peak memory is not raised); join() starts them if
+// need be, waits and rethrows their failure; a bake that throws waits for
+// them on the way out (nothing may still write into r).
 class LutTask {
 public:
-    LutTask(BakeResult& r, const BakeOptions& o, LutCache* cache, OutputSink* sink) {
-        if (!o.lut && o.extra.luts.empty()) return;
+    LutTask(BakeResult& r, const BakeOptions& o, LutCache* cache, OutputSink* sink)
+        : r_(r), o_(o), cache_(cache), sink_(sink) {}
+    void start() {
+        if (started_ || joined_ || (!o_.lut && o_.extra.luts.empty())) return;
         started_ = true;
-        group_.run([&r, &o, cache, sink, this] {
+        group_.run([&r = r_, &o = o_, cache = cache_, sink = sink_, this] {
             const auto t0 = std::chrono::steady_clock::now();
             try {
                 if (o.lut) {
@@ -234,6 +238,8 @@ public:
     }
     // Seconds the LUTs took (on their own task); rethrows their failure.
     double join() {
+        start();
+        joined_ = true;
         if (!started_) return 0.0;
         group_.wait();
         started_ = false;
@@ -242,8 +248,12 @@ public:
     }
 
 private:
+    BakeResult& r_;
+    const BakeOptions& o_;
+    LutCache* cache_;
+    OutputSink* sink_;
     tbb::task_group group_;
-    bool started_ = false;
+    bool started_ = false, joined_ = false;
     std::exception_ptr error_;
     double seconds_ = 0.0;
 };
@@ -598,6 +608,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
             const std::string method_h = "hierarchical second-order kernel sum over exact bins (eps " +
                                          std::to_string(o.hierarchical.eps).substr(0, 4) + ", " +
                                          r.specular_kernel + " kernel)";
+            if (fis || !owned) luts.start();  // no source to free first
             for (const std::vector<size_t>& group : level_groups(jobs, !fis)) {
                 const LevelJob& job = jobs[group[0]];
                 const int n = job.face_size;
@@ -611,6 +622,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                     if (o.extra.keep_source) r.source = std::move(*owned);
                     FloatBuffer().swap(owned->pixels);
                     owned = nullptr;
+                    luts.start();  // its memory in place of the source's
                 }
                 if (group.size() > 1) {
                     // Levels at nearby roughness in one pass (shared bins and loads).

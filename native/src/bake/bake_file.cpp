@@ -1,9 +1,6 @@
 #include "iblbake/bake/bake_file.h"
 
 #include <chrono>
-#include <filesystem>
-#include <future>
-#include <string>
 
 #include "iblbake/export/plan.h"
 #include "iblbake/io/hash.h"
@@ -19,20 +16,12 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     plan_presets(bo, wo.presets);  // a preset the options cannot serve fails here, before any work
     io::check_replaceable(outdir, source_path);  // before any work: nothing to lose later
     const auto start = std::chrono::steady_clock::now();
-    // A regular file's sha256 on a thread of its own while the image is
-    // decoded (hashing after it kept one core busy and the other idle).
-    // Anything else (a FIFO, a device: read_image refuses them) is never
-    // opened here: it could block or never end.
-    std::error_code ec;
-    std::future<std::string> source_hash;
-    if (std::filesystem::is_regular_file(source_path, ec))
-        source_hash = std::async(std::launch::async, [&source_path] { return io::sha256_file(source_path); });
     io::LoadedImage loaded = io::read_image(source_path);
     SourceInfo src;
     src.path = source_path;
     src.width = loaded.image.width;
     src.height = loaded.image.height;
-    src.sha256 = source_hash.valid() ? source_hash.get() : io::sha256_file(source_path);
+    src.sha256 = io::sha256_file(source_path);
     src.linearised = loaded.linearised;
     const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     BakeOptions o = with_exports(bo, wo);  // the levels and files the presets need

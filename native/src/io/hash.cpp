@@ -33,10 +33,13 @@ std::string sha256_file(const std::string& path) {
     std::ifstream f(path, std::ios::binary);
     if (!f) throw std::runtime_error("cannot read '" + path + "' to hash it");
     Digest d;
-    std::vector<char> buf(1 << 20);
+    // 128 KB at a time, not zeroed first: files are hashed while a bake is at
+    // its largest (beside the reading of its source, in the writer's tasks).
+    constexpr size_t kChunk = size_t(1) << 17;
+    const std::unique_ptr<char[]> buf(new char[kChunk]);
     while (f) {
-        f.read(buf.data(), std::streamsize(buf.size()));
-        d.update(buf.data(), size_t(f.gcount()));
+        f.read(buf.get(), std::streamsize(kChunk));
+        d.update(buf.get(), size_t(f.gcount()));
     }
     return d.hex();
 }
