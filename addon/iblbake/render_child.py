@@ -17,7 +17,18 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from iblbake import world_reader  # noqa: E402  (the package folder is named iblbake in every install)
 
 
+def _print_samples(stats, *_):
+    """Blender 5.x no longer prints Cycles' progress in background mode; its
+    render_stats handler still gets it ("... | Sample 5/32"). Printed (and
+    flushed) for world_reader.ChildRender, which reads the samples from this
+    process's output to move the panel's progress bar. Earlier versions pass
+    None here and print the line themselves."""
+    if isinstance(stats, str) and "Sample" in stats:
+        print(stats, flush=True)
+
+
 def main(argv):
+    bpy.app.handlers.render_stats.append(_print_samples)
     blend, name, width, samples, frame, out, notes_path = argv
     world = None
     if blend:
