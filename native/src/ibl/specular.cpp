@@ -303,27 +303,43 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     const float rho = t.rho;
     const int top = int(tree.levels.size()) - 1;
     for (int b = 0; b < tree.levels[top].w * tree.levels[top].h; ++b) cur.push_back(uint32_t(b));
+    // Branch-free: every node's decision is computed, then its pointer (or
+    // its four children) written unconditionally and the count advanced by
+    // the decision. The same decisions in the same order as a loop that
+    // branched on them (so the same sums to the bit), without the branches
+    // that the data made unpredictable (they were most of this loop's time).
     for (int lvl = top; lvl >= 0 && !cur.empty(); --lvl) {
         const BinLevel& L = tree.levels[lvl];
         const BinNode* nodes = L.nodes.data();
-        next.clear();
-        for (const uint32_t b : cur) {
+        const uint32_t w = uint32_t(L.w), shift = uint32_t(__builtin_ctz(w)), w2 = 2 * w;  // w: a power of two
+        const size_t n = cur.size(), acc0 = accepted.size();
+        accepted.resize(acc0 + n);
+        next.resize(lvl == 0 ? 0 : 4 * n);
+        size_t na = acc0, nn = 0;
+        for (size_t k = 0; k < n; ++k) {
+            const uint32_t b = cur[k];
             const BinNode& nd = nodes[b];
-            const float beta = nd.radius;
-            if (beta < 0.0f) continue;  // no radiance
+            const float beta = nd.radius;  // < 0: no radiance
             const float d = fast_acos(c.x * nd.px + c.y * nd.py + c.z * nd.pz);
-            if (d - beta - rho >= 0.5f * float(kPi)) continue;  // behind every texel's horizon
-            const float dmin = std::max(0.0f, d - beta - rho);
+            const float reach = d - beta - rho;
+            // Not empty, and not behind every texel's horizon.
+            const bool live = (beta >= 0.0f) & (reach < 0.5f * float(kPi));
+            const float dmin = std::max(0.0f, reach);
             const bool near_horizon = std::fabs(d - 0.5f * float(kPi)) <= beta + rho;
-            const bool small = beta <= eps * std::max(scale, dmin) && (!near_horizon || beta <= horizon_radius);
-            if (lvl == 0 || small) {
-                accepted.push_back(&nd);
-            } else {
-                const uint32_t y = b / uint32_t(L.w), x = b - y * uint32_t(L.w), w2 = 2 * uint32_t(L.w);
+            const bool small = (beta <= eps * std::max(scale, dmin)) & (!near_horizon | (beta <= horizon_radius));
+            const bool take = live & ((lvl == 0) | small);
+            accepted[na] = &nd;
+            na += take;
+            if (lvl > 0) {
+                const uint32_t y = b >> shift, x = b & (w - 1);
                 const uint32_t c0 = 2 * y * w2 + 2 * x;
-                next.insert(next.end(), {c0, c0 + 1, c0 + w2, c0 + w2 + 1});
+                uint32_t* out = next.data() + nn;
+                out[0] = c0, out[1] = c0 + 1, out[2] = c0 + w2, out[3] = c0 + w2 + 1;
+                nn += 4 * size_t(live & !take);
             }
         }
+        accepted.resize(na);
+        next.resize(nn);
         std::swap(cur, next);
     }
     const size_t count = accepted.size();
