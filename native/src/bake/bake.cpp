@@ -420,7 +420,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         // The scan, the SH9 projection and the hot split's row sums in one
         // pass over the source; the last two are of the source as it is,
         // used unless cleaning or the overflow guard changes it below.
-        const SourceSummary summary = summarize_source(view);
+        SourceSummary summary = summarize_source(view);
         const ImageView scanned = view;
         const SourceScan& scan = summary.scan;
         r.bad_input = scan.bad;
@@ -448,6 +448,10 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                 for (float& v : owned->pixels) v = std::ldexp(v, -scale_exp);
             view = *owned;
         }
+        // Cleaning changed the bad rows alone: their sums again (a few rows,
+        // not the whole source's two further passes).
+        const bool summary_refreshed = r.bad_input.any() && scale_exp == 0;
+        if (summary_refreshed) refresh_summary_rows(summary, view, scan.bad_rows);
         const ImageView source = view;
         clock.done("sanitize");
 
@@ -462,9 +466,11 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         const ImageView integrand = resampled.width > 0 ? ImageView(resampled) : source;
         r.integration_width = integrand.width;
         r.integration_height = integrand.height;
-        // The summary describes the integrand when that is the source unchanged.
-        const bool summary_holds = !r.bad_input.any() && scale_exp == 0 && integrand.data == scanned.data &&
-                                   integrand.rows == scanned.rows;
+        // The summary describes the integrand when that is the source unchanged
+        // or cleaned (its bad rows summarized again above).
+        const bool summary_holds =
+            scale_exp == 0 && (summary_refreshed ? integrand.data == source.data && integrand.rows == source.rows
+                                                 : integrand.data == scanned.data && integrand.rows == scanned.rows);
         r.sh9 = summary_holds ? summary.sh9 : project_sh9(integrand);
         // The mean is the constant band: L_00 = integral of L / (2 sqrt(pi)).
         for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));

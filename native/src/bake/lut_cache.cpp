@@ -58,7 +58,7 @@ std::optional<Image> FileLutCache::load(const std::string& key) {
         return std::nullopt;
     char digest[65] = {0};
     if (std::fread(digest, 1, 64, file.f) != 64) return std::nullopt;
-    Image lut(wh[0], wh[1]);
+    Image lut(wh[0], wh[1], Uninitialized{});  // read whole below, or a miss
     if (std::fread(lut.pixels.data(), sizeof(float), lut.pixels.size(), file.f) != lut.pixels.size())
         return std::nullopt;  // truncated: a miss, and store() replaces it
     char extra;

@@ -20,7 +20,7 @@ public:
     LevelFiller(BinLevel& level, int w, int h) : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1) {
         L_.w = w;
         L_.h = h;
-        L_.nodes.assign(size_t(w) * h, BinNode{});
+        L_.nodes.resize(size_t(w) * h);  // not zeroed here: row() writes every node whole
         // Longitudes at every half bin (the radius test's 3 x 3 points per
         // bin): cos and sin once per level, not per bin.
         for (int k = 0; k <= 2 * w; ++k) {
@@ -40,6 +40,7 @@ public:
         }
         for (int x = 0; x < w_; ++x) {
             BinNode& nd = L_.nodes[L_.index(x, y)];
+            nd = BinNode{};
             const Bin& b = bins[x];
             const double psum = b.power[0] + b.power[1] + b.power[2];
             Vec3d m{0, 0, 0};

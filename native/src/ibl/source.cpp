@@ -469,6 +469,15 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
 
 namespace {
 
+// The sum of per-row projections, in row order.
+std::array<Sh9, 3> sh9_total(const std::vector<std::array<Sh9, 3>>& rows) {
+    std::array<Sh9, 3> sum{};
+    for (const auto& r : rows)
+        for (int c = 0; c < 3; ++c)
+            for (int i = 0; i < 9; ++i) sum[c][i] += r[c][i];
+    return sum;
+}
+
 // The SH9 projection row by row: row(y) is independent of every other row;
 // total() sums them in a fixed order (the same for any thread count).
 class Sh9Rows {
@@ -493,13 +502,8 @@ public:
         for (int c = 0; c < 3; ++c)
             rows_[y][c] = sh9_rect_integral(LonIntegrals{t[c][0], t[c][1], t[c][2], t[c][3], t[c][4], t[c][5]}, tab_.lat[y]);
     }
-    std::array<Sh9, 3> total() const {
-        std::array<Sh9, 3> sum{};
-        for (const auto& r : rows_)
-            for (int c = 0; c < 3; ++c)
-                for (int i = 0; i < 9; ++i) sum[c][i] += r[c][i];
-        return sum;
-    }
+    std::array<Sh9, 3> total() const { return sh9_total(rows_); }
+    std::vector<std::array<Sh9, 3>> take_rows() { return std::move(rows_); }
 
 private:
     const LatLongTables& tab_;
@@ -534,7 +538,22 @@ SourceSummary summarize_source(ImageView img) {
     });
     out.scan = combine_scans(scans);
     out.sh9 = sh.total();
+    out.sh9_rows = sh.take_rows();
     return out;
+}
+
+void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int>& rows) {
+    if (rows.empty()) return;
+    const int w = img.width, h = img.height;
+    const LatLongTables tab(w, h);
+    Sh9Rows sh(tab, w, h);
+    for (int y : rows) {
+        sh.row(img.at(0, y), y);
+        hot_row(img.at(0, y), w, y, tab, s.hot);
+    }
+    std::vector<std::array<Sh9, 3>> fresh = sh.take_rows();
+    for (int y : rows) s.sh9_rows[y] = fresh[y];
+    s.sh9 = sh9_total(s.sh9_rows);
 }
 
 }  // namespace iblbake

@@ -31,7 +31,7 @@ static_assert(sizeof(BinNode) == 64, "a bin is one cache line");
 
 struct BinLevel {
     int w = 0, h = 0;
-    std::vector<BinNode> nodes;
+    BigVector<BinNode> nodes;  // every node written by the builder
     size_t index(int x, int y) const { return size_t(y) * w + x; }
 };
 

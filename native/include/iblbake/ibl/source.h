@@ -144,13 +144,18 @@ std::array<Sh9, 3> project_sh9(ImageView img);
 // passes of a 400 MB source are memory-bound). The results are those of the
 // three functions; sh9 and hot rows describe the source as it is, so a
 // source the scan finds bad (or past the overflow guard) needs them again
-// once cleaned.
+// once cleaned: refresh_summary_rows redoes the bad rows alone.
 struct SourceSummary {
     SourceScan scan;
     std::array<Sh9, 3> sh9;
     HotRows hot;
+    std::vector<std::array<Sh9, 3>> sh9_rows;  // each row's projection; sh9 is their sum in row order
 };
 SourceSummary summarize_source(ImageView img);
+// After the rows `rows` of the source changed (cleaned), with every other
+// row as summarized: those rows' SH9 and hot-row sums again from `img`, and
+// the totals. Equal to the bit to project_sh9(img) and hot_rows(img).
+void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int>& rows);
 
 
 }  // namespace iblbake
