@@ -1,6 +1,10 @@
 #include "iblbake/bake/bake_file.h"
 
+#include <tbb/task_group.h>
+
 #include <chrono>
+#include <exception>
+#include <memory>
 
 #include "iblbake/export/plan.h"
 #include "iblbake/io/hash.h"
@@ -16,21 +20,49 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     plan_presets(bo, wo.presets);  // a preset the options cannot serve fails here, before any work
     io::check_replaceable(outdir, source_path);  // before any work: nothing to lose later
     const auto start = std::chrono::steady_clock::now();
-    io::LoadedImage loaded = io::read_image(source_path);
     SourceInfo src;
     src.path = source_path;
+    // The file's sha256 and the writer's staging folder, on a task of their
+    // own while the source decodes: the decoder's threads leave gaps (its
+    // last blocks), and neither needs the pixels. One thread asked for: in turn.
+    std::unique_ptr<BakeWriter> writer;
+    auto side_work = [&] {
+        src.sha256 = io::sha256_file(source_path);
+        // Every SPEC file is written as soon as its output is made, while the bake goes on.
+        writer = std::make_unique<BakeWriter>(outdir, wo, progress, lut_cache);
+    };
+    io::LoadedImage loaded;
+    if (bo.threads == 1) {
+        loaded = io::read_image(source_path);
+        side_work();
+    } else {
+        tbb::task_group side;
+        std::exception_ptr side_error;
+        side.run([&] {
+            try {
+                side_work();
+            } catch (...) {
+                side_error = std::current_exception();
+            }
+        });
+        try {
+            loaded = io::read_image(source_path);
+        } catch (...) {
+            side.wait();
+            throw;
+        }
+        side.wait();
+        if (side_error) std::rethrow_exception(side_error);
+    }
     src.width = loaded.image.width;
     src.height = loaded.image.height;
-    src.sha256 = io::sha256_file(source_path);
     src.linearised = loaded.linearised;
     const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     BakeOptions o = with_exports(bo, wo);  // the levels and files the presets need
     o.warnings.insert(o.warnings.begin(), loaded.warnings.begin(), loaded.warnings.end());
-    // Every SPEC file is written as soon as its output is made, while the bake goes on.
-    BakeWriter writer(outdir, wo, progress, lut_cache);
-    BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache, &writer);
+    BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache, writer.get());
     r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
-    return writer.finish(r, o, src);
+    return writer->finish(r, o, src);
 }
 
 }  // namespace iblbake

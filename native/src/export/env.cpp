@@ -50,15 +50,18 @@ public:
 
 private:
     static constexpr uint32_t kFirst = (127u - 20u) << 10, kEntries = (21u << 10) + 1;
-    uint8_t slow(float v) const {
-        int b = 0;
-        while (b < 255 && v >= next_[b]) ++b;
-        return uint8_t(b);
+    uint8_t slow(float v) const {  // the number of thresholds <= v
+        return uint8_t(std::upper_bound(next_, next_ + 255, v) - next_);
     }
     float next_[256];
     std::vector<uint8_t> table_;
 };
-const GammaBytes kGammaBytes;
+// Made on first use (a Babylon export), not when any program that links
+// this starts.
+const GammaBytes& gamma_bytes() {
+    static const GammaBytes table;
+    return table;
+}
 }  // namespace
 
 // toRGBD as the shader computes it (D from the largest channel, gamma 2.2),
@@ -70,7 +73,8 @@ void rgbd_encode(const float rgb[3], uint8_t out[4]) {
     const float max_rgb = std::max(std::max(c[0], std::max(c[1], c[2])), 1e-7f);
     float d = std::max(255.0f / max_rgb, 1.0f);
     d = std::clamp(std::floor(d) / 255.0f, 0.0f, 1.0f);
-    for (int k = 0; k < 3; ++k) out[k] = kGammaBytes(std::min(c[k] * d, 1.0f));
+    const GammaBytes& gamma = gamma_bytes();
+    for (int k = 0; k < 3; ++k) out[k] = gamma(std::min(c[k] * d, 1.0f));
     out[3] = uint8_t(std::lround(d * 255.0f));
 }
 

@@ -14,8 +14,8 @@ namespace iblbake::io {
 
 struct LoadedImage {
     Image image;          // RGB, linear
-    int source_channels;  // as stored in the file
-    bool linearised;      // an integer sRGB file was converted to linear
+    int source_channels = 0;  // as stored in the file
+    bool linearised = false;  // an integer sRGB file was converted to linear
     std::string format;   // OpenImageIO's format name ("openexr", "hdr", "png", ...)
     std::vector<std::string> warnings;  // what was odd but readable (a 2-channel file, a cropped window, ...)
 };
