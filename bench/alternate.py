@@ -2,14 +2,17 @@
 """Times shell commands side by side, alternating, in one run: the way to
 compare two builds (or iblbake and cmft) on a shared host whose speed drifts.
 
-    bench/alternate.py [--reps N] [--warmup W] NAME=COMMAND NAME=COMMAND ...
+    bench/alternate.py [--reps N] [--warmup W] [--pause S] NAME=COMMAND NAME=COMMAND ...
 
 Each round runs every command once, in the given order (rotated by one each
 round, so no command always follows the same one), under /usr/bin/time for
 wall time, CPU time (user + system) and peak RSS. Prints the load average before and after, and per
 command the median wall time, its spread (min..max), the median CPU time,
 the median peak RSS and the ratios of the medians to the first command's. Commands run through
-`sh -c`; their output is discarded; a failure stops the run."""
+`sh -c`; their output is discarded; a failure stops the run. --pause S sleeps S
+seconds before each command: on this VM a short command run straight after
+cmft's three seconds of eight threads on two cores was measured up to 20 %
+slower than after a pause, which charges one program for another's load."""
 import argparse
 import os
 import statistics
@@ -35,6 +38,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--reps", type=int, default=7)
     ap.add_argument("--warmup", type=int, default=1, help="untimed rounds first (caches, page cache)")
+    ap.add_argument("--pause", type=float, default=0.0, help="seconds of sleep before each command")
     ap.add_argument("commands", nargs="+", metavar="NAME=COMMAND")
     a = ap.parse_args()
     cmds = []
@@ -55,6 +59,8 @@ def main():
     for k in range(a.reps):
         for j in range(len(cmds)):
             name, cmd = cmds[(j + k) % len(cmds)]
+            if a.pause > 0:
+                time.sleep(a.pause)
             w, m, c = run(cmd, rss_file)
             walls[name].append(w)
             rss[name].append(m)
@@ -62,7 +68,8 @@ def main():
     load1 = os.getloadavg()
     os.unlink(rss_file)
     print(f"load average before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, "
-          f"after {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}; {a.reps} alternating rounds, {os.cpu_count()} cores")
+          f"after {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}; {a.reps} alternating rounds, {os.cpu_count()} cores"
+          + (f", {a.pause:g} s pause before each command" if a.pause > 0 else ""))
     first = statistics.median(walls[cmds[0][0]])
     first_cpu = statistics.median(cpu[cmds[0][0]])
     print(f"{'command':<14} {'wall s':>8} {'min..max s':>15} {'CPU s':>7} {'peak RSS MB':>12} "

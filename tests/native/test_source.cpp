@@ -6,6 +6,7 @@
 #include <limits>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"
@@ -119,6 +120,18 @@ TEST(Source, BufferChecksFindOneBadValueAnywhere) {
         EXPECT_FALSE(any_beyond(img.pixels, 65504.0f)) << at;
         img.pixels[at] = 0.0f;
     }
+    // One block (no tasks), the edges of the ranges, NaN with its sign bit set.
+    std::vector<float> small = {1.0f, -0.0f, std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()};
+    EXPECT_TRUE(all_finite(small));
+    EXPECT_TRUE(any_beyond(small, 65504.0f));
+    EXPECT_FALSE(any_beyond(small, std::numeric_limits<float>::max()));
+    EXPECT_FALSE(any_beyond(small, std::numeric_limits<float>::infinity()));
+    small.push_back(-std::numeric_limits<float>::quiet_NaN());
+    EXPECT_FALSE(all_finite(small));
+    EXPECT_TRUE(any_beyond(small, std::numeric_limits<float>::infinity()));
+    EXPECT_TRUE(any_beyond(std::vector<float>{0.0f}, -1.0f));
+    EXPECT_FALSE(any_beyond(std::vector<float>{}, -1.0f));
+    EXPECT_TRUE(all_finite(std::vector<float>{}));
 }
 
 TEST(Source, SanitizeCountsAndZeroes) {

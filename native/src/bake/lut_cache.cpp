@@ -63,8 +63,7 @@ std::optional<Image> FileLutCache::load(const std::string& key) {
         return std::nullopt;  // truncated: a miss, and store() replaces it
     char extra;
     if (std::fread(&extra, 1, 1, file.f) != 0) return std::nullopt;  // too long: not what we wrote
-    for (const float v : lut.pixels)
-        if (!std::isfinite(v)) return std::nullopt;
+    if (!all_finite(lut.pixels)) return std::nullopt;
     if (payload_digest(lut) != std::string(digest, 64)) return std::nullopt;  // damaged
     return lut;
 }

@@ -34,10 +34,21 @@ void convolve_direction(const BinGroups& g, const Vec3d& n, float out[3]) {
     uint32_t* ac = across.data();
     const float *cx = g.cx.data(), *cy = g.cy.data(), *cz = g.cz.data(), *sr = g.sin_radius.data();
     kernel::irr_horizon_fn()(cx, cy, cz, sr, count, nx, ny, nz, wg);  // vectorised for the CPU
+    // Branch-free compaction, 16 groups at a time; most runs lie wholly on
+    // one side (only a band about the horizon's great circle is across), and
+    // a run whose flags sum to 16 is skipped after one vectorised sum.
     size_t n_across = 0;
-    for (size_t p = 0; p < count; ++p) {  // branch-free compaction
-        ac[n_across] = uint32_t(p);
-        n_across += wg[p] == 0.0f;
+    for (size_t p0 = 0; p0 < count; p0 += kLanes) {
+        const size_t e = std::min(count, p0 + kLanes);
+        if (e - p0 == kLanes) {
+            float s = 0.0f;
+            for (size_t l = 0; l < kLanes; ++l) s += wg[p0 + l];
+            if (s == float(kLanes)) continue;
+        }
+        for (size_t p = p0; p < e; ++p) {
+            ac[n_across] = uint32_t(p);
+            n_across += wg[p] == 0.0f;
+        }
     }
     for (int c = 0; c < 3; ++c) {
         const float* x = g.vx[c].data();

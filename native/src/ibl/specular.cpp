@@ -56,38 +56,74 @@ std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQu
     return samples;
 }
 
+namespace {
+
+// Texels of one face row at lat-long coordinates (fx, fy) (pixel units,
+// fx within one period of [0, w)): latlong_bilinear's arithmetic.
+void mirror_lookups(ImageView latlong, const double* fx, const double* fy, int n, float* out) {
+    const int w = latlong.width, h = latlong.height;
+    for (int i = 0; i < n; ++i) {
+        const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
+        const double tx = fx[i] - x0f, ty = fy[i] - y0f;
+        int x0 = int(x0f);  // within one period of [0, w): wrapped without a division
+        if (x0 >= w) x0 -= w;
+        else if (x0 < 0) x0 += w;
+        if (x0 < 0 || x0 >= w) x0 = ((x0 % w) + w) % w;
+        const int x1 = x0 + 1 == w ? 0 : x0 + 1;
+        const int y0 = std::clamp(int(y0f), 0, h - 1), y1 = std::clamp(int(y0f) + 1, 0, h - 1);
+        const float *pa = latlong.at(x0, y0), *pb = latlong.at(x1, y0), *pc = latlong.at(x0, y1),
+                    *pd = latlong.at(x1, y1);
+        float* o = out + size_t(i) * 3;
+        for (int k = 0; k < 3; ++k) {
+            const double top = pa[k] + (pb[k] - pa[k]) * tx;
+            const double bottom = pc[k] + (pd[k] - pc[k]) * tx;
+            o[k] = float(top + (bottom - top) * ty);
+        }
+    }
+}
+
+}  // namespace
+
 void specular_mirror(Cubemap& dst, ImageView latlong) {
     const int n = dst.size, w = latlong.width, h = latlong.height;
     const kernel::MirrorRowFn coords = kernel::mirror_row_fn();
-    parallel_for(0, 6 * n, [&](int row) {
-        const int f = row / n, j = row % n;
-        // latlong_bilinear for a whole row: the lat-long coordinates first,
-        // in one loop built for the CPU's vectors (kernel::mirror_row_fn),
-        // then the lookups.
+    auto frame_of = [](int f, double* frame) {
+        const FaceFrame& fr = kFaceFrames[f];
+        const double v[9] = {fr.ma.x, fr.ma.y, fr.ma.z, fr.s.x, fr.s.y, fr.s.z, fr.t.x, fr.t.y, fr.t.z};
+        std::copy(v, v + 9, frame);
+    };
+    // The four side faces (+-X, +-Z: t is -Y on each) share their rows'
+    // latitudes: a texel's direction is (horizontal, -b) with a horizontal
+    // part of length sqrt(1 + a^2) on every one of them, so the face-row's
+    // fy (one atan2 per texel) is computed once for four faces, and fx
+    // depends on the column alone (once per face). The top and bottom
+    // faces are computed row by row. Every coordinate is kernel::mirror_row's.
+    constexpr int kSide[4] = {0, 1, 4, 5};
+    std::vector<double> side_fx(size_t(4) * n), scratch(n);
+    for (int s = 0; s < 4; ++s) {
+        double frame[9];
+        frame_of(kSide[s], frame);
+        coords(frame, 0.0, n, w, h, side_fx.data() + size_t(s) * n, scratch.data());
+    }
+    // Tasks: n side rows (four faces each), then the top and bottom faces' 2n rows.
+    parallel_for(0, 3 * n, [&](int task) {
         thread_local std::vector<double> fx, fy;
         fx.resize(n);
         fy.resize(n);
-        const FaceFrame& fr = kFaceFrames[f];
-        const double frame[9] = {fr.ma.x, fr.ma.y, fr.ma.z, fr.s.x, fr.s.y, fr.s.z, fr.t.x, fr.t.y, fr.t.z};
-        coords(frame, 2.0 * (j + 0.5) / n - 1.0, n, w, h, fx.data(), fy.data());
-        for (int i = 0; i < n; ++i) {
-            const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
-            const double tx = fx[i] - x0f, ty = fy[i] - y0f;
-            int x0 = int(x0f);  // within one period of [0, w): wrapped without a division
-            if (x0 >= w) x0 -= w;
-            else if (x0 < 0) x0 += w;
-            if (x0 < 0 || x0 >= w) x0 = ((x0 % w) + w) % w;
-            const int x1 = x0 + 1 == w ? 0 : x0 + 1;
-            const int y0 = std::clamp(int(y0f), 0, h - 1), y1 = std::clamp(int(y0f) + 1, 0, h - 1);
-            const float *pa = latlong.at(x0, y0), *pb = latlong.at(x1, y0), *pc = latlong.at(x0, y1),
-                        *pd = latlong.at(x1, y1);
-            float* o = dst.at(f, i, j);
-            for (int k = 0; k < 3; ++k) {
-                const double top = pa[k] + (pb[k] - pa[k]) * tx;
-                const double bottom = pc[k] + (pd[k] - pc[k]) * tx;
-                o[k] = float(top + (bottom - top) * ty);
-            }
+        if (task < n) {
+            const int j = task;
+            double frame[9];
+            frame_of(0, frame);
+            coords(frame, 2.0 * (j + 0.5) / n - 1.0, n, w, h, fx.data(), fy.data());
+            for (int s = 0; s < 4; ++s)
+                mirror_lookups(latlong, side_fx.data() + size_t(s) * n, fy.data(), n, dst.at(kSide[s], 0, j));
+            return;
         }
+        const int row = task - n, f = 2 + row / n, j = row % n;  // +Y, -Y
+        double frame[9];
+        frame_of(f, frame);
+        coords(frame, 2.0 * (j + 0.5) / n - 1.0, n, w, h, fx.data(), fy.data());
+        mirror_lookups(latlong, fx.data(), fy.data(), n, dst.at(f, 0, j));
     });
 }
 
