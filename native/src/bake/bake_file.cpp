@@ -4,7 +4,9 @@
 
 #include <chrono>
 #include <exception>
+#include <filesystem>
 #include <memory>
+#include <system_error>
 
 #include "iblbake/export/plan.h"
 #include "iblbake/io/hash.h"
@@ -32,7 +34,8 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
         writer = std::make_unique<BakeWriter>(outdir, wo, progress, lut_cache);
     };
     io::LoadedImage loaded;
-    if (bo.threads == 1) {
+    std::error_code ec;
+    if (bo.threads == 1 || !std::filesystem::is_regular_file(source_path, ec)) {  // the reader refuses the rest
         loaded = io::read_image(source_path);
         side_work();
     } else {

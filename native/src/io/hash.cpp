@@ -2,7 +2,11 @@
 
 #include <openssl/evp.h>
 
-#include <fstream>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <memory>
 #include <stdexcept>
 #include <vector>
@@ -30,16 +34,32 @@ struct Digest {
 }  // namespace
 
 std::string sha256_file(const std::string& path) {
-    std::ifstream f(path, std::ios::binary);
-    if (!f) throw std::runtime_error("cannot read '" + path + "' to hash it");
+    // Opened without blocking and checked before any read: a FIFO (whose
+    // open would wait for a writer) or a device (/dev/zero never ends) is
+    // refused at once. Bakes hash their source beside its decoding, before
+    // the reader has said what the path is.
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) throw std::runtime_error("cannot read '" + path + "' to hash it");
+    struct Closer {
+        int fd;
+        ~Closer() { ::close(fd); }
+    } closer{fd};
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
+        throw std::runtime_error("cannot hash '" + path + "': not a regular file");
     Digest d;
     // 128 KB at a time, not zeroed first: files are hashed while a bake is at
     // its largest (beside the reading of its source, in the writer's tasks).
     constexpr size_t kChunk = size_t(1) << 17;
     const std::unique_ptr<char[]> buf(new char[kChunk]);
-    while (f) {
-        f.read(buf.get(), std::streamsize(kChunk));
-        d.update(buf.get(), size_t(f.gcount()));
+    for (;;) {
+        const ssize_t got = ::read(fd, buf.get(), kChunk);
+        if (got < 0) {
+            if (errno == EINTR) continue;
+            throw std::runtime_error("cannot read '" + path + "' to hash it");
+        }
+        if (got == 0) break;
+        d.update(buf.get(), size_t(got));
     }
     return d.hex();
 }
