@@ -119,13 +119,17 @@ constexpr uintmax_t kMaxEncoded = uintmax_t(1) << 30;  // a 4096^2 float LUT is 
 
 }  // namespace
 
-bool FileLutCache::copy_encoded(const std::string& key, const fs::path& to) {
+bool FileLutCache::copy_encoded(const std::string& key, const fs::path& to, std::string* sha256) {
     const std::optional<std::string> entry = read_all(dir_ / (key + ".enc"), kMaxEncoded + 72);
     if (!entry || entry->size() < 72 || std::memcmp(entry->data(), kEncodedMagic, 8) != 0) return false;
     const char* bytes = entry->data() + 72;
     const size_t size = entry->size() - 72;
-    if (io::sha256_bytes(bytes, size) != entry->substr(8, 64)) return false;  // damaged
-    if (write_all(to, bytes, size)) return true;
+    std::string digest = io::sha256_bytes(bytes, size);
+    if (digest != entry->substr(8, 64)) return false;  // damaged
+    if (write_all(to, bytes, size)) {
+        if (sha256) *sha256 = std::move(digest);
+        return true;
+    }
     std::error_code ec;
     fs::remove(to, ec);  // the caller writes it itself
     return false;

@@ -318,7 +318,16 @@ struct BakeWriter::Impl {
     void lut_file(const Image& lut, const char* encoding, const fs::path& path, const std::function<void()>& write) {
         if (!lut_cache) return write();
         const std::string key = encoded_lut_key(lut, encoding);
-        if (lut_cache->copy_encoded(key, path)) return;
+        std::string sha;
+        if (lut_cache->copy_encoded(key, path, &sha)) {
+            // The bytes' sha256, verified by the copy: hash() need not read them again.
+            const fs::path rel = path.lexically_relative(staging.path());  // path is staging / rel
+            if (!rel.empty() && *rel.begin() != ".." && !sha.empty()) {
+                std::lock_guard<std::mutex> lock(mutex);
+                hashes[rel.generic_string()] = std::move(sha);
+            }
+            return;
+        }
         write();
         lut_cache->store_encoded(key, path);
     }
@@ -327,6 +336,10 @@ struct BakeWriter::Impl {
     // the staging folder), taken by the task that wrote it while the bytes
     // are in the page cache, not one file after another at the end.
     void hash(const std::string& rel) {
+        {
+            std::lock_guard<std::mutex> lock(mutex);
+            if (hashes.count(rel)) return;  // known already (a LUT file copied from the cache)
+        }
         const fs::path p = staging.path() / rel;
         std::error_code ec;
         if (!fs::is_regular_file(p, ec)) return;

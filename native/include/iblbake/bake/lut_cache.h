@@ -26,8 +26,12 @@ public:
     // A LUT's file as a writer encoded it (encoded_lut_key()): copied to `to`
     // when cached (false: not cached, `to` untouched), stored from `from`.
     // Copying the bytes is cheaper than encoding the table again (a zip
-    // float EXR of 512 x 512 costs about 50 ms of CPU). Default: no such cache.
-    virtual bool copy_encoded(const std::string& /*key*/, const std::filesystem::path& /*to*/) { return false; }
+    // float EXR of 512 x 512 costs about 50 ms of CPU). `sha256`, when given,
+    // receives the copied file's sha256 (the cache verified it). Default: no such cache.
+    virtual bool copy_encoded(const std::string& /*key*/, const std::filesystem::path& /*to*/,
+                              std::string* /*sha256*/ = nullptr) {
+        return false;
+    }
     virtual void store_encoded(const std::string& /*key*/, const std::filesystem::path& /*from*/) {}
 };
 
@@ -46,7 +50,7 @@ public:
     void store(const std::string& key, const Image& lut) override;
     // <key>.enc: a magic, the sha256 of the bytes, the bytes; a damaged
     // entry is a miss (and is replaced by the next store_encoded()).
-    bool copy_encoded(const std::string& key, const std::filesystem::path& to) override;
+    bool copy_encoded(const std::string& key, const std::filesystem::path& to, std::string* sha256 = nullptr) override;
     void store_encoded(const std::string& key, const std::filesystem::path& from) override;
     const std::filesystem::path& dir() const { return dir_; }
     // $IBLBAKE_CACHE_DIR, else $XDG_CACHE_HOME/iblbake, else ~/.cache/iblbake.
