@@ -4,6 +4,10 @@
 #include <cmath>
 #include <cstdint>
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
@@ -57,11 +61,27 @@ void convolve_direction(const BinGroups& g, const Vec3d& n, float out[3]) {
         double total = sum(x, y, z, wg, whole, nx, ny, nz);
         for (size_t p = whole; p < count; ++p) total += wg[p] * std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
         // Groups across the horizon, bin by bin.
+        // The four bins' cosines side by side (each evaluated as before),
+        // added in their order: the same sum to the bit, a quarter of the
+        // arithmetic instructions.
         float t = 0.0f;
+        const float *bx = g.bx[c].data(), *by = g.by[c].data(), *bz = g.bz[c].data();
         for (size_t q = 0; q < n_across; ++q) {
-            const size_t p = ac[q];
-            for (size_t k = 4 * p; k < 4 * p + 4; ++k)
-                t += std::max(0.0f, nx * g.bx[c][k] + ny * g.by[c][k] + nz * g.bz[c][k]);
+            const size_t k = 4 * size_t(ac[q]);
+            float d[4];
+#ifdef __SSE2__
+            // max(v, 0) as maxps takes it: 0 for NaN and -0, as std::max(0, v).
+            const __m128 v = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(nx), _mm_loadu_ps(bx + k)),
+                                                   _mm_mul_ps(_mm_set1_ps(ny), _mm_loadu_ps(by + k))),
+                                        _mm_mul_ps(_mm_set1_ps(nz), _mm_loadu_ps(bz + k)));
+            _mm_storeu_ps(d, _mm_max_ps(v, _mm_setzero_ps()));
+#else
+            for (int l = 0; l < 4; ++l) d[l] = std::max(0.0f, nx * bx[k + l] + ny * by[k + l] + nz * bz[k + l]);
+#endif
+            t += d[0];
+            t += d[1];
+            t += d[2];
+            t += d[3];
         }
         out[c] = float((total + t) / kPi);
     }

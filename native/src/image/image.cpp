@@ -7,41 +7,18 @@
 #include <cstring>
 #include <new>
 
-#include <sys/mman.h>
-
 #include "iblbake/ibl/parallel.h"
 
 namespace iblbake {
 
-namespace {
-constexpr size_t kPage = 4096, kHugePage = size_t(2) << 20, kHugeFrom = size_t(2) << 20;
-size_t page_round(size_t bytes) { return (bytes + kPage - 1) / kPage * kPage; }
-}  // namespace
-
 void* buffer_allocate(size_t bytes, size_t align) {
-    if (bytes < kHugeFrom)
-        return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__ ? ::operator new(bytes, std::align_val_t(align))
-                                                        : ::operator new(bytes);
-    if (align > kHugePage) throw std::bad_alloc();
-    // Map 2 MB more than asked, keep the 2 MB-aligned part, unmap the rest.
-    const size_t len = page_round(bytes), span = len + kHugePage;
-    void* m = mmap(nullptr, span, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (m == MAP_FAILED) throw std::bad_alloc();
-    const uintptr_t base = uintptr_t(m), start = (base + kHugePage - 1) & ~uintptr_t(kHugePage - 1);
-    const size_t head = start - base, tail = span - head - len;
-    if (head) munmap(m, head);
-    if (tail) munmap(reinterpret_cast<void*>(start + len), tail);
-    void* p = reinterpret_cast<void*>(start);
-#ifdef MADV_HUGEPAGE
-    madvise(p, len, MADV_HUGEPAGE);  // advice: ignored where unsupported
-#endif
-    return p;
+    return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__ ? ::operator new(bytes, std::align_val_t(align))
+                                                    : ::operator new(bytes);
 }
 
 void buffer_free(void* p, size_t bytes, size_t align) noexcept {
-    if (!p) return;
-    if (bytes >= kHugeFrom) munmap(p, page_round(bytes));
-    else if (align > __STDCPP_DEFAULT_NEW_ALIGNMENT__) ::operator delete(p, std::align_val_t(align));
+    (void)bytes;
+    if (align > __STDCPP_DEFAULT_NEW_ALIGNMENT__) ::operator delete(p, std::align_val_t(align));
     else ::operator delete(p);
 }
 

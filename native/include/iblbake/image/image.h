@@ -9,13 +9,13 @@
 
 namespace iblbake {
 
-// Storage for the large buffers: below 2 MB, operator new; from 4 MB
-// on, its own mapping aligned to 2 MB and offered to the kernel's
-// transparent huge pages (madvise), so that a 25 MB source is faulted in
-// as a dozen 2 MB pages instead of 6 000 small ones (each fault about a
-// microsecond on a VM; the default bake took 20 600 faults, 13 500 so). The kernel may refuse; the buffer works either way.
-// `bytes` must be the same in both calls.
-// `align`: the type's alignment (operator new's aligned form past 16).
+// Storage for the large buffers (operator new, aligned for the type).
+// Tried and dropped: buffers of 2 MB and more in their own mappings offered
+// to transparent huge pages. Back to back they made a default bake 4 %
+// faster (20 600 page faults -> 13 500), but on this VM a bake started a few
+// seconds after other work (cmft, or just idle) took 23 % longer: the host
+// takes back free 2 MB blocks (free page reporting), and a huge page's first
+// touch then costs the host's faults too. `bytes` must be the same in both calls.
 void* buffer_allocate(std::size_t bytes, std::size_t align);
 void buffer_free(void* p, std::size_t bytes, std::size_t align) noexcept;
 
