@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -291,6 +292,45 @@ TEST(Specular, RowKernelsOfEveryIsaAgreeWithTheBaseline) {
         EXPECT_LT(worst_irr, 1e-5) << isa;
     }
     set_specular_kernel_isa("");
+}
+
+// The traversal's decisions in AVX-512 lanes are the scalar loop's: with the
+// same kernel, every texel of every level is the same to the bit and so is
+// the count of bins used, on a sun source (steep, bright), a noisy one and
+// with grouped levels (several lobes, one traversal), at several tile sizes.
+TEST(Specular, TraversalLanesDecideAsTheScalarLoop) {
+    if (!set_specular_kernel_isa("avx512") || !set_specular_traversal_lanes(true)) {
+        std::printf("[traversal lanes] this CPU has no avx512: nothing to compare\n");
+        set_specular_kernel_isa("");
+        return;
+    }
+    const Image sun = ref::sun_source(512, 256, {0.4, 0.6, 0.3}, 1.0, 5e4f, 0.3f);
+    const Image noisy = ref::random_smooth_source(300, 150, 17);
+    for (const Image* src : {&sun, &noisy})
+        for (int tile : {0, 4, 16}) {
+            BakeOptions o = specular_only(64, 7);
+            o.hierarchical.tile = tile;
+            BinTree tree = build_bin_tree(*src, 256);
+            for (const std::vector<double>& rough : {std::vector<double>{0.1}, std::vector<double>{0.3},
+                                                     std::vector<double>{0.2, 0.25, 0.3}, std::vector<double>{0.9}}) {
+                auto run = [&](bool lanes, std::vector<Cubemap>& out) {
+                    set_specular_traversal_lanes(lanes);
+                    out.clear();
+                    for (size_t k = 0; k < rough.size(); ++k) out.emplace_back(32);
+                    std::vector<SpecularGroupTarget> targets;
+                    for (size_t k = 0; k < rough.size(); ++k) targets.push_back({&out[k], rough[k]});
+                    return specular_hierarchical_group(targets, tree, o.hierarchical);
+                };
+                std::vector<Cubemap> a, b;
+                const double used_lanes = run(true, a), used_scalar = run(false, b);
+                EXPECT_EQ(used_lanes, used_scalar) << "tile " << tile << " r " << rough[0];
+                for (size_t k = 0; k < a.size(); ++k)
+                    EXPECT_EQ(std::memcmp(a[k].pixels.data(), b[k].pixels.data(), a[k].pixels.size() * sizeof(float)), 0)
+                        << "tile " << tile << " r " << rough[k];
+            }
+        }
+    set_specular_traversal_lanes(true);
+    set_specular_kernel_isa("");  // back to the best
 }
 
 TEST(Specular, EveryKernelIsaAgreesWithTheBaseline) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -252,6 +253,13 @@ std::atomic<int>& isa_choice() {
     return choice;
 }
 
+static_assert(offsetof(BinNode, px) == kernel::kNodePx * sizeof(float) &&
+                  offsetof(BinNode, py) == kernel::kNodePy * sizeof(float) &&
+                  offsetof(BinNode, pz) == kernel::kNodePz * sizeof(float) &&
+                  offsetof(BinNode, radius) == kernel::kNodeRadius * sizeof(float) &&
+                  sizeof(BinNode) == kernel::kNodeFloats * sizeof(float),
+              "the traversal kernels read BinNode's fields at these offsets");
+
 kernel::SumsFn kernel_fn() {
     switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
 #if defined(IBLBAKE_KERNEL_X86)
@@ -284,6 +292,21 @@ kernel::IrrHorizonFn kernel::irr_horizon_fn() {
     }
 }
 
+std::atomic<bool>& traversal_lanes_on() {
+    static std::atomic<bool> on{true};
+    return on;
+}
+
+kernel::TraverseLevelFn kernel::traverse_level_fn() {
+    if (!traversal_lanes_on().load(std::memory_order_relaxed)) return nullptr;
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::traverse_level_avx512;
+#endif
+        default: return nullptr;
+    }
+}
+
 kernel::IrrSumFn kernel::irr_sum_fn() {
     switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
 #if defined(IBLBAKE_KERNEL_X86)
@@ -305,6 +328,11 @@ kernel::Sh9RowFn kernel::sh9_row_fn() {
 }
 
 const char* specular_kernel_isa() { return kIsaNames[isa_choice().load()]; }
+
+bool set_specular_traversal_lanes(bool on) {
+    traversal_lanes_on().store(on);
+    return on && kernel::traverse_level_fn() != nullptr;
+}
 
 bool set_specular_kernel_isa(const std::string& isa) {
     const int best = int(best_isa());
@@ -378,10 +406,35 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     // the decision. The same decisions in the same order as a loop that
     // branched on them (so the same sums to the bit), without the branches
     // that the data made unpredictable (they were most of this loop's time).
+    const kernel::TraverseLevelFn lanes = kernel::traverse_level_fn();
     for (int lvl = top; lvl >= 0 && !cur.empty(); --lvl) {
         const BinLevel& L = tree.levels[lvl];
         const BinNode* nodes = L.nodes.data();
         const uint32_t w = uint32_t(L.w), shift = uint32_t(__builtin_ctz(w)), w2 = 2 * w;  // w: a power of two
+        if (lanes) {
+            // The same decisions in lanes (kernel::traverse_level_fn): the
+            // accepted and the split nodes by index, in order; then the
+            // pointers and the split nodes' children, as below.
+            thread_local std::vector<uint32_t> took, split;
+            const size_t n = cur.size();
+            took.resize(n);
+            split.resize(n);
+            size_t nt = 0, ns = 0;
+            const float cc[3] = {c.x, c.y, c.z};
+            lanes(reinterpret_cast<const float*>(nodes), cur.data(), n, lvl == 0, cc, rho, scale, eps, horizon_radius,
+                  took.data(), &nt, split.data(), &ns);
+            const size_t acc0 = accepted.size();
+            accepted.resize(acc0 + nt);
+            for (size_t k = 0; k < nt; ++k) accepted[acc0 + k] = nodes + took[k];
+            next.resize(4 * ns);
+            for (size_t k = 0; k < ns; ++k) {
+                const uint32_t b = split[k], y = b >> shift, x = b & (w - 1), c0 = 2 * y * w2 + 2 * x;
+                uint32_t* out = next.data() + 4 * k;
+                out[0] = c0, out[1] = c0 + 1, out[2] = c0 + w2, out[3] = c0 + w2 + 1;
+            }
+            std::swap(cur, next);
+            continue;
+        }
         const size_t n = cur.size(), acc0 = accepted.size();
         accepted.resize(acc0 + n);
         next.resize(lvl == 0 ? 0 : 4 * n);

@@ -7,6 +7,7 @@
 // is built for the baseline x86-64 and runs on any CPU.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 
 namespace iblbake {
 namespace kernel {
@@ -74,6 +75,21 @@ IrrSumFn irr_sum_fn();
 // These for the instruction set the specular kernel runs with
 // (specular_kernel_isa(), IBLBAKE_ISA).
 Sh9RowFn sh9_row_fn();
+
+// One level of the specular traversal (specular.cpp's gather_bins) in lanes:
+// for the n nodes cur[0..n) of a level (nodes: 16 floats each, BinNode's
+// layout, fields at the offsets below), the scalar loop's decisions to the
+// bit; the accepted nodes appended to accepted[*n_accepted..], those to
+// visit further (not at the last level) to split[*n_split..], in order.
+// null where the CPU (or IBLBAKE_ISA) has no such version: the scalar loop runs.
+constexpr int kNodePx = 0, kNodePy = 1, kNodePz = 2, kNodeRadius = 13, kNodeFloats = 16;
+using TraverseLevelFn = void (*)(const float* nodes, const uint32_t* cur, size_t n, int last, const float* c,
+                                 float rho, float scale, float eps, float horizon_radius, uint32_t* accepted,
+                                 size_t* n_accepted, uint32_t* split, size_t* n_split);
+void traverse_level_avx512(const float* nodes, const uint32_t* cur, size_t n, int last, const float* c, float rho,
+                           float scale, float eps, float horizon_radius, uint32_t* accepted, size_t* n_accepted,
+                           uint32_t* split, size_t* n_split);
+TraverseLevelFn traverse_level_fn();
 
 }  // namespace kernel
 }  // namespace iblbake

@@ -95,6 +95,10 @@ const char* specular_kernel_isa();
 // measurements. Returns false (and changes nothing) when the CPU lacks it;
 // throws std::invalid_argument for an unknown name.
 bool set_specular_kernel_isa(const std::string& isa);
+// The traversal's decisions in AVX-512 lanes (on by default where the kernel
+// runs as avx512; the same decisions as the scalar loop, to the bit). For
+// tests: false turns them off; returns whether the lanes would run.
+bool set_specular_traversal_lanes(bool on);
 
 // The eps a level of this face size uses: q.eps from face 64 up, less below
 // (sqrt(face / 64), at least half): small levels are cheap and their wide
