@@ -59,44 +59,11 @@ std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQu
 
 namespace {
 
-// A contiguous source (no row table), the common case: the same arithmetic
-// with plain offsets, built for AVX-512, AVX2 and baseline x86-64 without
-// fused multiply-add (the same bits on every CPU), which lets the compiler
-// vectorise it with gathers.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
-#endif
-void mirror_lookups_contiguous(const float* data, int w, int h, const double* fx, const double* fy, int n,
-                               float* out) {
-    const ptrdiff_t stride = ptrdiff_t(w) * 3;
-    for (int i = 0; i < n; ++i) {
-        const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
-        const double tx = fx[i] - x0f, ty = fy[i] - y0f;
-        int x0 = int(x0f);
-        x0 = x0 >= w ? x0 - w : (x0 < 0 ? x0 + w : x0);
-        const int x1 = x0 + 1 == w ? 0 : x0 + 1;
-        const int yi = int(y0f);
-        const int y0 = std::clamp(yi, 0, h - 1), y1 = std::clamp(yi + 1, 0, h - 1);
-        const float *pa = data + y0 * stride + x0 * 3, *pb = data + y0 * stride + x1 * 3,
-                    *pc = data + y1 * stride + x0 * 3, *pd = data + y1 * stride + x1 * 3;
-        float* o = out + size_t(i) * 3;
-        for (int k = 0; k < 3; ++k) {
-            const double top = pa[k] + (pb[k] - pa[k]) * tx;
-            const double bottom = pc[k] + (pd[k] - pc[k]) * tx;
-            o[k] = float(top + (bottom - top) * ty);
-        }
-    }
-}
-
 // Texels of one face row at lat-long coordinates (fx, fy) (pixel units,
-// fx within one period of [0, w)): latlong_bilinear's arithmetic.
-void mirror_lookups(ImageView latlong, const double* fx, const double* fy, int n, float* out) {
-    const int w = latlong.width, h = latlong.height;
-    if (!latlong.rows) {
-        bool in_period = true;  // mirror_row's fx lie in [-0.5, w - 0.5): one wrap at most
-        for (int i = 0; i < n; ++i) in_period &= fx[i] >= -double(w) && fx[i] < 2.0 * w;
-        if (in_period) return mirror_lookups_contiguous(latlong.data, w, h, fx, fy, n, out);
-    }
+// fx within one period of [0, w)): latlong_bilinear's arithmetic, the
+// source's texel (x, y) at at(x, y).
+template <typename At>
+inline void bilinear_row(At at, int w, int h, const double* fx, const double* fy, int n, float* out) {
     for (int i = 0; i < n; ++i) {
         const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
         const double tx = fx[i] - x0f, ty = fy[i] - y0f;
@@ -106,8 +73,7 @@ void mirror_lookups(ImageView latlong, const double* fx, const double* fy, int n
         if (x0 < 0 || x0 >= w) x0 = ((x0 % w) + w) % w;
         const int x1 = x0 + 1 == w ? 0 : x0 + 1;
         const int y0 = std::clamp(int(y0f), 0, h - 1), y1 = std::clamp(int(y0f) + 1, 0, h - 1);
-        const float *pa = latlong.at(x0, y0), *pb = latlong.at(x1, y0), *pc = latlong.at(x0, y1),
-                    *pd = latlong.at(x1, y1);
+        const float *pa = at(x0, y0), *pb = at(x1, y0), *pc = at(x0, y1), *pd = at(x1, y1);
         float* o = out + size_t(i) * 3;
         for (int k = 0; k < 3; ++k) {
             const double top = pa[k] + (pb[k] - pa[k]) * tx;
@@ -115,6 +81,24 @@ void mirror_lookups(ImageView latlong, const double* fx, const double* fy, int n
             o[k] = float(top + (bottom - top) * ty);
         }
     }
+}
+
+// A contiguous source (no row table), the common case: plain offsets, built
+// for AVX-512, AVX2 and baseline x86-64 without fused multiply-add (the same
+// bits on every CPU; rounding by instruction instead of the baseline's floor
+// sequence).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
+#endif
+void mirror_lookups_contiguous(const float* data, int w, int h, const double* fx, const double* fy, int n,
+                               float* out) {
+    const ptrdiff_t stride = ptrdiff_t(w) * 3;
+    bilinear_row([data, stride](int x, int y) { return data + y * stride + ptrdiff_t(x) * 3; }, w, h, fx, fy, n, out);
+}
+
+void mirror_lookups(ImageView latlong, const double* fx, const double* fy, int n, float* out) {
+    if (!latlong.rows) return mirror_lookups_contiguous(latlong.data, latlong.width, latlong.height, fx, fy, n, out);
+    bilinear_row([&latlong](int x, int y) { return latlong.at(x, y); }, latlong.width, latlong.height, fx, fy, n, out);
 }
 
 }  // namespace
@@ -411,6 +395,12 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
         const BinLevel& L = tree.levels[lvl];
         const BinNode* nodes = L.nodes.data();
         const uint32_t w = uint32_t(L.w), shift = uint32_t(__builtin_ctz(w)), w2 = 2 * w;  // w: a power of two
+        // Node b's four children at the next finer level, into out[0..4).
+        auto children = [shift, w, w2](uint32_t b, uint32_t* out) {
+            const uint32_t y = b >> shift, x = b & (w - 1);
+            const uint32_t c0 = 2 * y * w2 + 2 * x;
+            out[0] = c0, out[1] = c0 + 1, out[2] = c0 + w2, out[3] = c0 + w2 + 1;
+        };
         if (lanes) {
             // The same decisions in lanes (kernel::traverse_level_fn): the
             // accepted and the split nodes by index, in order; then the
@@ -427,11 +417,7 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
             accepted.resize(acc0 + nt);
             for (size_t k = 0; k < nt; ++k) accepted[acc0 + k] = nodes + took[k];
             next.resize(4 * ns);
-            for (size_t k = 0; k < ns; ++k) {
-                const uint32_t b = split[k], y = b >> shift, x = b & (w - 1), c0 = 2 * y * w2 + 2 * x;
-                uint32_t* out = next.data() + 4 * k;
-                out[0] = c0, out[1] = c0 + 1, out[2] = c0 + w2, out[3] = c0 + w2 + 1;
-            }
+            for (size_t k = 0; k < ns; ++k) children(split[k], next.data() + 4 * k);
             std::swap(cur, next);
             continue;
         }
@@ -454,10 +440,7 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
             accepted[na] = &nd;
             na += take;
             if (lvl > 0) {
-                const uint32_t y = b >> shift, x = b & (w - 1);
-                const uint32_t c0 = 2 * y * w2 + 2 * x;
-                uint32_t* out = next.data() + nn;
-                out[0] = c0, out[1] = c0 + 1, out[2] = c0 + w2, out[3] = c0 + w2 + 1;
+                children(b, next.data() + nn);
                 nn += 4 * size_t(live & !take);
             }
         }

@@ -5,22 +5,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <new>
 
 #include "iblbake/ibl/parallel.h"
 
 namespace iblbake {
-
-void* buffer_allocate(size_t bytes, size_t align) {
-    return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__ ? ::operator new(bytes, std::align_val_t(align))
-                                                    : ::operator new(bytes);
-}
-
-void buffer_free(void* p, size_t bytes, size_t align) noexcept {
-    (void)bytes;
-    if (align > __STDCPP_DEFAULT_NEW_ALIGNMENT__) ::operator delete(p, std::align_val_t(align));
-    else ::operator delete(p);
-}
 
 void zero_fill(float* p, size_t n) {
     constexpr size_t kChunk = size_t(1) << 18;  // 1 MB of floats per task

@@ -3,28 +3,22 @@
 #pragma once
 #include <cstddef>
 #include <memory>
-#include <new>
 #include <utility>
 #include <vector>
 
 namespace iblbake {
-
-// Storage for the large buffers (operator new, aligned for the type).
-// Tried and dropped: buffers of 2 MB and more in their own mappings offered
-// to transparent huge pages. Back to back they made a default bake 4 %
-// faster (20 600 page faults -> 13 500), but on this VM a bake started a few
-// seconds after other work (cmft, or just idle) took 23 % longer: the host
-// takes back free 2 MB blocks (free page reporting), and a huge page's first
-// touch then costs the host's faults too. `bytes` must be the same in both calls.
-void* buffer_allocate(std::size_t bytes, std::size_t align);
-void buffer_free(void* p, std::size_t bytes, std::size_t align) noexcept;
 
 // std::allocator whose value-initialisation (vector(n), resize(n)) leaves
 // floats as they come: a buffer that is about to be written whole is not
 // first zeroed by one thread (a 400 MB source or a 75 MB cube: a tenth of a
 // second of page faults and memset on the critical path). Anything that
 // needs zeros asks for them (Image(w, h) and Cubemap(n) still give zeros,
-// filled in parallel). Its memory comes from buffer_allocate.
+// filled in parallel). Tried and dropped: the large buffers in their own
+// mappings offered to transparent huge pages. Back to back they made a
+// default bake 4 % faster (20 600 page faults -> 13 500), but on this VM a
+// bake started a few seconds after other work took 23 % longer: the host
+// takes back free 2 MB blocks (free page reporting), and a huge page's first
+// touch then costs the host's faults too.
 template <typename T>
 struct DefaultInitAllocator : std::allocator<T> {
     template <typename U>
@@ -34,11 +28,6 @@ struct DefaultInitAllocator : std::allocator<T> {
     DefaultInitAllocator() = default;
     template <typename U>
     DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}  // NOLINT: implicit, as std::allocator's
-    T* allocate(std::size_t n) {
-        if (n > std::size_t(-1) / 2 / sizeof(T)) throw std::bad_array_new_length();
-        return static_cast<T*>(buffer_allocate(n * sizeof(T), alignof(T)));
-    }
-    void deallocate(T* p, std::size_t n) noexcept { buffer_free(p, n * sizeof(T), alignof(T)); }
     template <typename U>
     void construct(U* p) noexcept {
         ::new (static_cast<void*>(p)) U;
