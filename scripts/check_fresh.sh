@@ -43,12 +43,8 @@ main() {
   [ "$(id -u)" -eq 0 ] || { echo "check_fresh: needs root (debootstrap, bind mounts)" >&2; exit 1; }
 
   REPO="$(cd "$(dirname "$0")/.." && pwd)"
-  TOP="${IBLBAKE_CHROOT_DIR:-/var/tmp/iblbake-chroots}"
-  case "$TOP/" in "$REPO"/*) echo "check_fresh: IBLBAKE_CHROOT_DIR must be outside the checkout" >&2; exit 1 ;; esac
-  CACHE="$TOP/cache"
-  BASE_TAR="$CACHE/$SUITE-minbase.tar.zst"
-  DEBS="$CACHE/$SUITE-debs"
-  mkdir -p "$CACHE"
+  . "$REPO/scripts/chroot_lib.sh"
+  case "$CHROOT_TOP/" in "$REPO"/*) echo "check_fresh: IBLBAKE_CHROOT_DIR must be outside the checkout" >&2; exit 1 ;; esac
 
   # --- timings -----------------------------------------------------------------
   PHASES=()
@@ -62,71 +58,21 @@ main() {
     printf '   %-34s %6d s\n' total $((SECONDS - T0))
   }
 
-  # --- host tools ----------------------------------------------------------------
-  need=()
-  command -v debootstrap >/dev/null || need+=(debootstrap)
-  command -v zstd >/dev/null || need+=(zstd)
-  command -v git >/dev/null || need+=(git)
-  if [ ${#need[@]} -gt 0 ]; then
-    echo "check_fresh: installing on the host: ${need[*]}"
-    apt-get -o DPkg::Lock::Timeout=900 update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=900 install -y -qq --no-install-recommends "${need[@]}"
-  fi
-
-  # --- the mirror, from the host's apt sources (never written into the repo) -----
-  # Prints "ARCHIVE_URI SECURITY_URI" (SECURITY_URI may be empty).
-  host_mirrors() {
-    local files=()
-    [ -f /etc/apt/sources.list ] && files+=(/etc/apt/sources.list)
-    shopt -s nullglob
-    local f
-    for f in /etc/apt/sources.list.d/*.list /etc/apt/sources.list.d/*.sources; do files+=("$f"); done
-    shopt -u nullglob
-    [ ${#files[@]} -gt 0 ] || return 0
-    awk '
-      function take(uri, suites,   n, a, i, sec) {
-        n = split(suites, a, /[ \t]+/); sec = 0
-        for (i = 1; i <= n; i++) if (a[i] ~ /-security$/) sec = 1
-        if (sec) { if (security == "") security = uri } else if (archive == "") archive = uri
-      }
-      FILENAME ~ /\.sources$/ {
-        if ($0 ~ /^[ \t]*$/) { if (uris != "" && types ~ /(^|[ \t])deb([ \t]|$)/) take(uris, suites); uris = suites = types = ""; next }
-        if ($1 == "Types:") { types = $0; sub(/^Types:[ \t]*/, "", types) }
-        if ($1 == "URIs:") uris = $2
-        if ($1 == "Suites:") { suites = $0; sub(/^Suites:[ \t]*/, "", suites) }
-        next
-      }
-      ENDFILE { if (uris != "" && types ~ /(^|[ \t])deb([ \t]|$)/) take(uris, suites); uris = suites = types = "" }
-      $1 == "deb" {
-        i = 2
-        if ($2 ~ /^\[/) { while (i <= NF && $i !~ /\]$/) i++; i++ }
-        take($i, $(i + 1))
-      }
-      END { print archive, security }
-    ' "${files[@]}"
-  }
-  read -r MIRROR SECURITY_MIRROR < <(host_mirrors) || true
-  MIRROR="${IBLBAKE_MIRROR:-$MIRROR}"
-  [ -n "$MIRROR" ] || { echo "check_fresh: no Debian mirror in the host's apt sources; set IBLBAKE_MIRROR" >&2; exit 1; }
-  MIRROR="${MIRROR%/}"
-  SECURITY_MIRROR="${SECURITY_MIRROR%/}"
+  chroot_host_tools
+  chroot_mirrors
 
   # --- the chroot and its clean-up -------------------------------------------------
-  RUN="$TOP/run-$SUITE-$$"
+  RUN="$CHROOT_TOP/run-$SUITE-$$"
   IMAGE="$RUN.img"       # the chroot's own file system, when a loop mount works
   OUTPUT="$RUN.output"   # what the commands inside printed (read for warnings)
-  MOUNTS=()
   cleanup() {
     local rc=$?
-    local i
     if [ -n "${PHASE_OPEN:-}" ]; then
       PHASE="$PHASE (failed)"
       phase_end
     fi
     PHASE="clean up (unmount, delete)"; PHASE_T=$SECONDS
-    for ((i = ${#MOUNTS[@]} - 1; i >= 0; i--)); do
-      umount -R "${MOUNTS[$i]}" 2>/dev/null || umount -lR "${MOUNTS[$i]}" 2>/dev/null || true
-    done
+    chroot_umount_all
     if [ -d "$RUN" ]; then
       if grep -q " $RUN/" /proc/mounts; then
         echo "check_fresh: mounts under $RUN remain; not deleting it" >&2
@@ -152,24 +98,14 @@ main() {
   trap 'exit 130' INT TERM HUP
 
   # --- 1. pristine base (cached) -----------------------------------------------------
-  if [ ! -s "$BASE_TAR" ]; then
+  if [ ! -s "$CHROOT_CACHE/$SUITE-minbase.tar.zst" ]; then
     phase_start "debootstrap minbase (download)"
-    BOOT="$TOP/boot-$SUITE-$$"
-    rm -rf "$BOOT"
-    if ! debootstrap --variant=minbase "$SUITE" "$BOOT" "$MIRROR"; then
-      tail -n 30 "$BOOT/debootstrap/debootstrap.log" 2>/dev/null >&2 || true
-      rm -rf "$BOOT"
-      exit 1
-    fi
-    rm -f "$BOOT/etc/resolv.conf" "$BOOT/etc/hostname"
-    tar -C "$BOOT" --numeric-owner -cf - . | zstd -q -T0 -3 -o "$BASE_TAR.tmp"
-    mv "$BASE_TAR.tmp" "$BASE_TAR"
-    rm -rf "$BOOT"
+    chroot_base "$SUITE"
     phase_end
   fi
 
   if [ -n "$BASE_ONLY" ]; then
-    echo "check_fresh: base of $SUITE cached at $BASE_TAR"
+    echo "check_fresh: base of $SUITE cached at $CHROOT_CACHE/$SUITE-minbase.tar.zst"
     exit 0
   fi
 
@@ -187,52 +123,11 @@ main() {
   else
     rm -f "$IMAGE"
   fi
-  zstd -q -dc "$BASE_TAR" | tar -C "$RUN" --numeric-owner -xf -
+  chroot_unpack "$SUITE" "$RUN"
   phase_end
 
-  phase_start "configure apt, mounts, copy checkout"
-  if [ "$SUITE" = sid ]; then
-    printf 'deb %s sid main\n' "$MIRROR" > "$RUN/etc/apt/sources.list"
-    # unstable's Release files on a snapshot mirror are past their Valid-Until
-    echo 'Acquire::Check-Valid-Until "false";' > "$RUN/etc/apt/apt.conf.d/99iblbake-sid"
-  else
-    {
-      printf 'deb %s %s main\n' "$MIRROR" "$SUITE"
-      printf 'deb %s %s-updates main\n' "$MIRROR" "$SUITE"
-      [ -z "$SECURITY_MIRROR" ] || printf 'deb %s %s-security main\n' "$SECURITY_MIRROR" "$SUITE"
-    } > "$RUN/etc/apt/sources.list"
-  fi
-  rm -f "$RUN/etc/apt/sources.list.d/"*.sources 2>/dev/null || true
-  # The host's network, as it is: its name servers, hosts, and the CA
-  # certificates its administrator added (a TLS-inspecting proxy's, without
-  # which npm cannot reach its registry); ca-certificates, once installed,
-  # trusts them as it does on the host.
-  cp -L /etc/resolv.conf "$RUN/etc/resolv.conf"
-  cp /etc/hosts "$RUN/etc/hosts"
-  local crt
-  for crt in /usr/local/share/ca-certificates/*.crt; do
-    [ -f "$crt" ] || continue
-    mkdir -p "$RUN/usr/local/share/ca-certificates"
-    cp "$crt" "$RUN/usr/local/share/ca-certificates/"
-  done
-  [ -e "$RUN/etc/mtab" ] || ln -s ../proc/self/mounts "$RUN/etc/mtab"  # as on an installed system
-  # dpkg without an fsync per file (a throw-away chroot; what is installed is the same)
-  echo force-unsafe-io > "$RUN/etc/dpkg/dpkg.cfg.d/iblbake-unsafe-io"
-  mount_in() {  # mount_in TARGET mount-args...
-    local target="$RUN$1"; shift
-    mkdir -p "$target"
-    mount "$@" "$target"
-    MOUNTS+=("$target")
-  }
-  mount_in /proc -t proc proc
-  mount_in /sys --rbind /sys
-  mount --make-rslave "$RUN/sys"
-  mount_in /dev --rbind /dev
-  mount --make-rslave "$RUN/dev"
-  if [ "${IBLBAKE_DEB_CACHE:-1}" != 0 ]; then
-    mkdir -p "$DEBS"
-    mount_in /var/cache/apt/archives --bind "$DEBS"
-  fi
+  phase_start "mounts, copy checkout"
+  chroot_mount "$RUN" "$SUITE"
   mkdir -p "$RUN/root/iblbake"
   if COMMIT="$(git -C "$REPO" rev-parse --short HEAD 2>/dev/null)"; then
     git -C "$REPO" archive --format=tar HEAD | tar -C "$RUN/root/iblbake" -xf -
@@ -242,16 +137,20 @@ main() {
   else  # not a git checkout (an unpacked source tree): its files without build products
     COMMIT="(no git)"
     tar -C "$REPO" --exclude=./build --exclude='./build-*' --exclude=./out --exclude=./.git \
-      --exclude=__pycache__ --exclude=.pytest_cache -cf - . | tar -C "$RUN/root/iblbake" -xf -
+      --exclude=__pycache__ --exclude=.pytest_cache --exclude=./dist -cf - . | tar -C "$RUN/root/iblbake" -xf -
+  fi
+  # The wheels and the extension zip scripts/package.sh made, when there are:
+  # the suite's Blender (4.2+) installs that zip in the tests (tests/blender/test_extension.py).
+  if ls "$REPO"/dist/iblbake-*.zip >/dev/null 2>&1; then
+    cp -r "$REPO/dist" "$RUN/root/iblbake/dist"
+    echo "check_fresh: dist/ copied in: $(cd "$REPO/dist" && echo *.zip)"
   fi
   phase_end
 
   in_chroot() {  # each output line prefixed with the seconds since the phase began
     local t=$SECONDS line
-    chroot "$RUN" /usr/bin/env -i HOME=/root LANG=C.UTF-8 TERM=dumb \
-      PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
-      IBLBAKE_INSIDE_FRESH_CHECK=1 \
-      /bin/bash -c "cd /root/iblbake && $1" 2>&1 |
+    local CHROOT_ENV=(IBLBAKE_INSIDE_FRESH_CHECK=1)
+    chroot_run "$RUN" "cd /root/iblbake && $1" 2>&1 |
       while IFS= read -r line; do printf '[%5d s] %s\n' $((SECONDS - t)) "$line"; done | tee -a "$OUTPUT"
   }
 

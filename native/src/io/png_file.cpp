@@ -133,9 +133,11 @@ void write_png_file_rows(const std::string& path, int width, int height, int cha
     if (!png || !info) throw std::runtime_error("libpng could not start");
     const int stride = width * channels * (bits / 8);
     std::vector<unsigned char> row(stride);
-    // Bands of 64 rows from `fill`: no whole-image buffer.
-    const int band = std::min(64, height);
-    std::vector<float> values(size_t(width) * channels * band);
+    // Bands of 64 rows from `fill`: no whole-image buffer. volatile: read
+    // after setjmp (GCC 10, the wheels' compiler, warns that it might be
+    // clobbered otherwise).
+    volatile const int band = std::min(64, height);
+    std::vector<float> values(size_t(width) * channels * size_t(band));
     if (setjmp(png_jmpbuf(png))) throw std::runtime_error("libpng failed (disk full?)");
     png_init_io(png, f.get());
     png_set_compression_level(png, level);
@@ -147,9 +149,10 @@ void write_png_file_rows(const std::string& path, int width, int height, int cha
     if (bits == 16) png_set_gAMA(png, info, 1.0);  // 16-bit files hold linear data (the LUT)
     png_write_info(png, info);
     const float scale = bits == 8 ? 255.0f : 65535.0f;
+    const int b = band;
     for (int y = 0; y < height; ++y) {
-        if (y % band == 0) fill(y, std::min(band, height - y), values.data());
-        const float* src = values.data() + size_t(y % band) * width * channels;
+        if (y % b == 0) fill(y, std::min(b, height - y), values.data());
+        const float* src = values.data() + size_t(y % b) * width * channels;
         for (int k = 0; k < width * channels; ++k) {
             const float v = std::fmin(std::fmax(src[k], 0.0f), 1.0f);
             const unsigned q = unsigned(std::lround(v * scale));

@@ -3,6 +3,7 @@
 #include <Imath/half.h>
 
 #if defined(__x86_64__)
+#include <cpuid.h>
 #include <immintrin.h>
 #endif
 
@@ -21,10 +22,18 @@ __attribute__((target("avx,f16c"))) void floats_to_half_f16c(const float* in, ui
 
 __attribute__((target("f16c"))) uint16_t float_to_half_f16c(float v) { return _cvtss_sh(v, _MM_FROUND_TO_NEAREST_INT); }
 
+// CPUID leaf 1 (ECX: OSXSAVE bit 27, AVX 28, F16C 29) and XCR0 (the OS saves
+// XMM and YMM state), as __builtin_cpu_supports("avx") checks; read by hand
+// because GCC 10 (the wheels' Debian 11 build) has no "f16c" for that builtin.
 bool has_f16c() {
     static const bool f16c = [] {
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+        unsigned a = 0, b = 0, c = 0, d = 0;
+        if (!__get_cpuid(1, &a, &b, &c, &d)) return false;
+        const unsigned need = (1u << 27) | (1u << 28) | (1u << 29);
+        if ((c & need) != need) return false;
+        unsigned lo = 0, hi = 0;
+        __asm__("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+        return (lo & 6u) == 6u;
     }();
     return f16c;
 }
