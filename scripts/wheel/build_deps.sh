@@ -51,8 +51,17 @@ cm "$(dir openexr)" -DBUILD_SHARED_LIBS=OFF -DBUILD_TESTING=OFF -DOPENEXR_BUILD_
 echo "build_deps: oneTBB"
 # Debian 12's patch adds a warning option GCC 10 does not know.
 sed -i 's/ -Wno-error=use-after-free//' "$(dir onetbb)cmake/compilers/GNU.cmake"
-cm "$(dir onetbb)" -DBUILD_SHARED_LIBS=OFF -DTBB_TEST=OFF -DTBB_STRICT=OFF -DTBBMALLOC_BUILD=OFF
+# A static TBB already loads no library (__TBB_DYNAMIC_LOAD_ENABLED=0), but
+# it still refers weakly to scalable_malloc and the RML server's entry points:
+# in a process where another TBB's libtbbmalloc is loaded globally (Blender,
+# OpenImageIO's module), the loader bound those to it (LD_DEBUG=bindings in
+# scripts/check_wheels.sh's clash test). No weak symbols: malloc it is.
+CXXFLAGS="$CXXFLAGS -D__TBB_WEAK_SYMBOLS_PRESENT=0" \
+  cm "$(dir onetbb)" -DBUILD_SHARED_LIBS=OFF -DTBB_TEST=OFF -DTBB_STRICT=OFF -DTBBMALLOC_BUILD=OFF
 # What was built, for dist/build-info.json.
-(cd "$SRC" && for f in *.dsc; do sed -n 's/^Source: //p; s/^Version: //p' "$f" | paste -sd' '; done) > "$PREFIX/versions.txt"
+{
+  (cd "$SRC" && for f in *.dsc; do sed -n 's/^Source: //p; s/^Version: //p' "$f" | paste -sd' '; done)
+  echo "openssl (libcrypto.a of Debian 11's libssl-dev) $(dpkg-query -W -f='${Version}' libssl-dev)"
+} > "$PREFIX/versions.txt"
 rm -rf "$SRC"
 echo "build_deps: done: $(paste -sd, "$PREFIX/versions.txt")"

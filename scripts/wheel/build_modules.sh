@@ -14,5 +14,5 @@ cmake -S "$SRC" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release \
   -DZLIB_LIBRARY="$DEPS/lib/libz.a" -DZLIB_INCLUDE_DIR="$DEPS/include" \
   -DPNG_LIBRARY="$DEPS/lib/libpng16.a" -DPNG_PNG_INCLUDE_DIR="$DEPS/include" \
   -DJPEG_LIBRARY="$DEPS/lib/libjpeg.a" -DJPEG_INCLUDE_DIR="$DEPS/include" \
-  -DOPENSSL_USE_STATIC_LIBS=ON >/dev/null
+  -DOPENSSL_USE_STATIC_LIBS=ON -DIBLBAKE_WHEEL_STRIP=ON >/dev/null
 cmake --build "$BUILD" -j"$(nproc)"
