@@ -15,6 +15,8 @@
 # module, and the bakes must still match; the loader's own log
 # (LD_DEBUG=bindings, tests/wheels/check_bindings.py) must show our module's
 # calls bound to glibc and Python alone, and nothing bound into it.
+# Before that, on the host: python3-wheel's `wheel unpack` (every file
+# against RECORD) of each wheel, and pip's install of the host Python's one.
 # Needs dist/ (scripts/package.sh) and the host build (scripts/build.sh).
 # Prints the time of each suite.
 set -euo pipefail
@@ -55,10 +57,24 @@ main() {
   mkdir -p "$work/src"
   cp "$forest" "$work/src/forest.exr"
   oiiotool "$work/src/forest.exr" --colorconvert linear sRGB -d uint8 -o "$work/src/forest.png"
+  oiiotool "$work/src/forest.exr" -o "$work/src/forest.hdr"
   cp "$REPO/tests/wheels/bake_cases.py" "$work/"
   local t=$SECONDS
   (cd "$work" && IBLBAKE_CACHE_DIR="$work/cache" /usr/bin/python3 bake_cases.py "$(dirname "$host_module")" src ref)
   echo "check_wheels: reference baked on the host in $((SECONDS - t)) s"
+
+  # Read by other tools than ours first: python3-wheel's unpack checks every
+  # file against RECORD; pip installs the wheel for this host's Python (its
+  # tags, its metadata), which then imports.
+  local w pytag
+  for w in "$REPO"/dist/iblbake_core-*.whl; do
+    /usr/bin/python3 -m wheel unpack -d "$work/unpacked" "$w" >/dev/null
+  done
+  pytag="$(/usr/bin/python3 -c 'import sys; print("cp%d%d" % sys.version_info[:2])')"
+  /usr/bin/python3 -m pip install -q --no-index --no-deps --no-compile --target "$work/pip" \
+    "$(ls "$REPO"/dist/iblbake_core-*-"$pytag"-"$pytag"-*.whl)"
+  /usr/bin/python3 -c "import sys; sys.path.insert(0, sys.argv[1]); import iblbake_core as ib; \
+    assert ib.__file__.startswith(sys.argv[1]), ib.__file__; print('check_wheels: pip installed', ib.__file__)" "$work/pip"
 
   local suite py failed=0
   for suite in "${suites[@]}"; do
@@ -82,14 +98,14 @@ main() {
     chroot_run "$root" "cd $work && python3 bake_cases.py site src out"
     rm -rf "$work/out-$suite"
     cp -r "$root$work/out" "$work/out-$suite"
-    /usr/bin/python3 "$REPO/tests/wheels/compare_bakes.py" "$work/ref" "$work/out-$suite" || failed=1
+    /usr/bin/python3 "$REPO/tests/wheels/compare_bakes.py" "$work/ref" "$work/out-$suite" --wheel || failed=1
     if [ "$suite" = sid ]; then
       chroot_apt "$root" python3-openimageio
       chroot_run "$root" "cd $work && rm -rf out bindings* && LD_DEBUG=bindings LD_DEBUG_OUTPUT=$work/bindings \
         python3 bake_cases.py site src out --foreign"
       rm -rf "$work/out-$suite-foreign"
       cp -r "$root$work/out" "$work/out-$suite-foreign"
-      /usr/bin/python3 "$REPO/tests/wheels/compare_bakes.py" "$work/ref" "$work/out-$suite-foreign" --expect-foreign ||
+      /usr/bin/python3 "$REPO/tests/wheels/compare_bakes.py" "$work/ref" "$work/out-$suite-foreign" --wheel --expect-foreign ||
         failed=1
       /usr/bin/python3 "$REPO/tests/wheels/check_bindings.py" "$root$work/bindings" \
         "$(basename "$(ls "$root$work"/site/iblbake_core*.so)")" || failed=1

@@ -37,6 +37,8 @@ BLENDER=(blender blender-data)
 [ "$RELEASE" != sid ] || BLENDER+=(python3-cattr python3-requests)
 GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
 EXPORT=(libzstd-dev python3-zstandard)
+# scripts/package.sh and check_wheels.sh: Debian chroots; the wheels read by pip and python3-wheel
+PACKAGING=(debootstrap zstd binutils python3-pip python3-wheel)
 # Engine tests: Debian's chromium (headless, SwiftShader); node and npm from
 # Debian unless an npm is already on PATH (nodesource's nodejs ships its own
 # npm and conflicts with Debian's npm package).
@@ -44,7 +46,7 @@ BROWSER=(chromium)
 command -v npm >/dev/null 2>&1 || BROWSER+=(nodejs npm)
 
 PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${HOSTILE[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BENCH[@]}" "${BLENDER[@]}" "${GUI[@]}"
-          "${EXPORT[@]}" "${BROWSER[@]}")
+          "${EXPORT[@]}" "${PACKAGING[@]}" "${BROWSER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -204,11 +204,15 @@ def file_read_plan(src: WorldSource):
     """(path, alpha matters) when the Environment Texture's pixels can be
     read from its file off the main thread (core.world.read_file_pixels),
     else None: Blender's own buffer is read (a packed, generated or edited
-    image). Raises WorldError for a missing file."""
+    image, or a format the native module does not read: the self-contained
+    wheels read OpenEXR, PNG and JPEG, not Radiance HDR or TIFF). Raises
+    WorldError for a missing file."""
     img = bpy.data.images[src.image_name]
     if src.image_path and not os.path.isfile(src.image_path):
         raise WorldError("the world's image '%s' cannot be read: no file at %s" % (img.name, src.image_path))
     if not src.image_path or img.is_dirty:
+        return None
+    if not native.load().image_format(src.image_path)[1]:
         return None
     return src.image_path, alpha_matters(img, src.colorspace)
 

@@ -34,6 +34,16 @@ void bind_geometry(pybind11::module_& m) {
         },
         "Face index and (s, t) in [0, 1] of an engine-space direction.");
     m.def(
+        "image_format",
+        [](const std::string& path) {
+            const std::string f = io::image_format(path);
+            return pybind11::make_tuple(f, io::reads_format(f));
+        },
+        pybind11::arg("path"),
+        "(format, readable): the format read_image takes the file for (its first bytes, else its extension; '' "
+        "for none), and whether this build reads it (OpenEXR, PNG and JPEG always; others through the "
+        "OpenImageIO plugin, which the self-contained wheels do not carry).");
+    m.def(
         "read_image",
         [](const std::string& path, bool info) -> pybind11::object {
             io::LoadedImage li;

@@ -2,7 +2,8 @@
 """Writes dist/ from the wheels' modules (scripts/package.sh calls it):
 
   iblbake_core-VER-cpXY-cpXY-manylinux_2_N_x86_64.whl   one per Python
-  iblbake-VER-linux-x64.zip     the Blender 4.2+ extension: the add-on in a
+  iblbake-blender4.2+-extension-VER-linux-x64.zip
+                                the Blender 4.2+ extension: the add-on in a
                                 folder iblbake/, its manifest naming the three
                                 wheels (iblbake/wheels/), platforms linux-x64
   build-info.json               what went in, and per ELF file: the libraries
@@ -195,7 +196,7 @@ def main():
     entries.append(("iblbake/blender_manifest.toml", extension_manifest(manifest_text, wheels).encode(), False))
     for w in wheels:
         entries.append(("iblbake/wheels/" + w, open(os.path.join(a.out, w), "rb").read(), False))
-    zip_name = "iblbake-%s-linux-x64.zip" % version
+    zip_name = "iblbake-blender4.2+-extension-%s-linux-x64.zip" % version
     write_zip(os.path.join(a.out, zip_name), entries)
 
     def lines(path):

@@ -276,6 +276,7 @@ def cancel_at(key, stage_prefix, how, folder, face_size=None):
 
 def scenario():
     install()
+    RESULT["module"] = addon("core.native").load().__file__
     prefs = bpy.context.preferences.addons[ADDON[0]].preferences
     prefs.default_output_dir = os.path.join(WORK, "out", "{world}")
     operators, panel = addon("operators"), addon("panel")

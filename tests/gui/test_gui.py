@@ -61,8 +61,20 @@ def blender_version():
     return int(m.group(1)), int(m.group(2))
 
 
+def dist_zip():
+    """scripts/package.sh's extension zip (self-contained wheels), when dist/ has one."""
+    dist = os.path.join(ROOT, "dist")
+    zips = sorted(p for p in os.listdir(dist) if p.startswith("iblbake-") and p.endswith(".zip")) \
+        if os.path.isdir(dist) else []
+    return os.path.join(dist, zips[-1]) if zips else None
+
+
 def addon_zip():
-    """The zip a user of this Blender installs: the extension on 4.2+, else the add-on."""
+    """The zip a user of this Blender installs: on 4.2+ the self-contained
+    extension of dist/ when there is one (scripts/check_fresh.sh copies it
+    in), else the build's extension; before 4.2 the build's add-on zip."""
+    if blender_version() >= (4, 2) and dist_zip():
+        return dist_zip()
     zips = sorted(p for p in os.listdir(BUILD) if p.startswith("iblbake-") and p.endswith(".zip"))
     want_extension = blender_version() >= (4, 2)
     zips = [p for p in zips if ("extension" in p) == want_extension]
@@ -115,6 +127,12 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
     print("screenshots: %s" % keep)
     sys.stdout.flush()
     assert res["errors"] == [], res["errors"]
+    # The module came from the installed zip, never the build tree: dist's
+    # wheel in the extensions' site-packages, else the zip's own folder.
+    print("module: %s (installed from %s)" % (res["module"], cmd[-3]))
+    assert res["module"].startswith(str(tmp_path)), res["module"]
+    if cmd[-3] == dist_zip():
+        assert "/extensions/.local/lib/python" in res["module"] and "site-packages" in res["module"], res["module"]
 
     # Both bakes ran as modal jobs and finished.
     for name, prepare in (("image", "Reading the world image"), ("sky", "Rendering the world with Cycles")):

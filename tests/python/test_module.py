@@ -236,3 +236,19 @@ def test_read_image_linearises_8bit_png(tmp_path):
     png = ib.read_image(str(out / "specular_0.png"))
     # 0.5 linear -> sRGB 8-bit -> back to linear.
     assert abs(float(png[0, 20, 0]) - 0.5) < 0.01
+
+
+def test_image_format_names_the_reader_a_file_gets(tmp_path):
+    """image_format(path): the format read_image takes a file for (its first
+    bytes first, then its extension) and whether this build reads it; the
+    build's module has the OpenImageIO plugin, so a Radiance .hdr is readable
+    (a wheel's is not: scripts/check_wheels.sh checks that side)."""
+    ib.bake(latlong(8, 16, 0.5), str(tmp_path / "b"), formats=["exr", "png"], **SMALL)
+    assert ib.image_format(str(tmp_path / "b" / "specular_0.exr")) == ("openexr", True)
+    assert ib.image_format(str(tmp_path / "b" / "specular_0.png")) == ("png", True)
+    hdr = tmp_path / "named.exr"  # the first bytes win over the extension
+    hdr.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 1\n\x80\x80\x80\x80")
+    assert ib.image_format(str(hdr)) == ("hdr", True)
+    assert ib.image_format(str(tmp_path / "missing.tif")) == ("tiff", True)
+    (tmp_path / "notes.txt").write_text("not an image")
+    assert ib.image_format(str(tmp_path / "notes.txt")) == ("", False)

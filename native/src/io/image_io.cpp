@@ -71,7 +71,10 @@ const Plugin& plugin() {
             if (p.read && p.release) return;
             p.error = c + " is not iblbake's OpenImageIO plugin";
         }
-        if (p.error.empty()) p.error = "libiblbake_oiio.so (the OpenImageIO reader for formats other than EXR) not found";
+        if (p.error.empty())
+            p.error = "this build reads OpenEXR, PNG and JPEG itself, and other formats through its OpenImageIO "
+                      "plugin (libiblbake_oiio.so), which it does not have (the self-contained wheels carry none): "
+                      "convert the image to EXR";
     });
     return p;
 }
@@ -222,7 +225,36 @@ bool jpeg_has_end(std::FILE* f, uintmax_t size) {
     return false;
 }
 
+// The format of an open file: its first bytes, else its extension ("" for none).
+std::string format_of(std::FILE* f, const std::string& path) {
+    unsigned char head[16] = {0};
+    std::rewind(f);
+    const size_t n = std::fread(head, 1, sizeof(head), f);
+    if (n >= 4 && std::memcmp(head, "\x76\x2f\x31\x01", 4) == 0) return "openexr";
+    const std::string sniffed = sniff(head, n);
+    return sniffed.empty() ? format_of_extension(path) : sniffed;
+}
+
+bool is_jpeg_magic(std::FILE* f) {
+    unsigned char head[3] = {0};
+    std::rewind(f);
+    return std::fread(head, 1, 3, f) == 3 && sniff(head, 3) == "jpeg";
+}
+
 }  // namespace
+
+std::string image_format(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) return format_of_extension(path);
+    // Without blocking: a regular file's open never waits.
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+    return f ? format_of(f.get(), path) : format_of_extension(path);
+}
+
+bool reads_format(const std::string& format) {
+    if (format == "openexr" || format == "png" || format == "jpeg") return true;
+    return !format.empty() && plugin().read != nullptr;
+}
 
 void check_source_size(int64_t width, int64_t height, const std::string& what) {
     if (width < 1 || height < 1) throw std::runtime_error(what + " has no pixels (" + size_text(width, height) + ")");
@@ -263,16 +295,12 @@ LoadedImage read_image(const std::string& path) {
     {
         std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
         if (!f) fail(path, std::strerror(errno));
-        unsigned char head[16] = {0};
-        const size_t n = std::fread(head, 1, sizeof(head), f.get());
-        if (n >= 4 && std::memcmp(head, "\x76\x2f\x31\x01", 4) == 0) format = "openexr";
-        else format = sniff(head, n);
-        const bool jpeg_magic = format == "jpeg";
-        if (format.empty()) format = format_of_extension(path);
+        format = format_of(f.get(), path);
         if (format.empty())
             fail(path, "not an image format iblbake reads (its first bytes are not EXR, PNG, JPEG, Radiance HDR, "
                        "TIFF, ... and its extension names none)");
-        if (jpeg_magic && !jpeg_has_end(f.get(), size)) fail(path, "JPEG file is truncated (no end-of-image marker)");
+        if (format == "jpeg" && is_jpeg_magic(f.get()) && !jpeg_has_end(f.get(), size))
+            fail(path, "JPEG file is truncated (no end-of-image marker)");
     }
     try {
         if (format == "openexr") return finish(detail::read_exr(path, size));

@@ -44,6 +44,13 @@ void check_source_size(int64_t width, int64_t height, const std::string& what = 
 // else the data window alone, with a warning.
 LoadedImage read_image(const std::string& path);
 
+// The format read_image takes `path` for ("openexr", "png", "jpeg", "hdr",
+// "tiff", ...; "" when neither its first bytes nor its extension name one).
+std::string image_format(const std::string& path);
+// Whether this build reads that format: OpenEXR, PNG and JPEG always, the
+// others when the OpenImageIO plugin loads (the wheels have none).
+bool reads_format(const std::string& format);
+
 enum class ExrPixel { Half, Float };
 // Zip-compressed EXR from an interleaved buffer of 3 (RGB) or 4 (RGBA)
 // channels. No time stamp, so equal pixels give equal files.
