@@ -34,7 +34,7 @@ export function loadBakes(data) {
   };
 }
 
-// The load snippet the export documents for an engine (README "Load it in
+// The load snippet the export documents for an engine (docs/export.md "Load it in
 // your engine"), extracted by prepare.py into web/snippets/<engine>.mjs;
 // null when there is none.
 export function snippetFor(engine) {
