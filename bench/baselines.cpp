@@ -4,7 +4,7 @@
 #include <cmath>
 #include <utility>
 
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/vec3.h"

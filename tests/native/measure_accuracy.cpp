@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "iblbake/bake/bake.h"
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/cube.h"

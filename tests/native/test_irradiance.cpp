@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "iblbake/bake/bake.h"
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
 #include "reference.h"

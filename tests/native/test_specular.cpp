@@ -12,7 +12,7 @@
 
 #include "iblbake/bake/bake.h"
 #include "iblbake/ibl/bin_tree.h"
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/ibl/specular.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"

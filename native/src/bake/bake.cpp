@@ -16,7 +16,7 @@
 #include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/irradiance.h"
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 
 namespace iblbake {
 

@@ -14,7 +14,7 @@
 
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/export/export.h"
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/image/encode.h"
 #include "iblbake/image/preview.h"
 #include "iblbake/io/hash.h"

@@ -9,7 +9,7 @@
 #include <stdexcept>
 
 #include "iblbake/export/container.h"
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/io/image_io.h"
 
 namespace iblbake {

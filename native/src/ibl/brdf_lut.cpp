@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/math/ggx.h"
 #include "iblbake/math/quadrature.h"
 #include "iblbake/math/spline.h"

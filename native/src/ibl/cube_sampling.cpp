@@ -4,7 +4,7 @@
 #include <cmath>
 #include <utility>
 
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/ibl/source.h"
 
 namespace iblbake {

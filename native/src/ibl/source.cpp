@@ -7,7 +7,7 @@
 #include <cstring>
 #include <utility>
 
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
 #include "specular_kernel.h"

@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/fast_math.h"
 #include "iblbake/math/ggx.h"
