@@ -1,4 +1,5 @@
-// iblbake CLI: parses arguments and calls bake_file(). No integration here.
+// iblbake CLI: parses arguments, makes the plan and calls bake_file(). No
+// integration here.
 #include <CLI/CLI.hpp>
 
 #include <unistd.h>
@@ -16,9 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "iblbake/bake/bake_file.h"
 #include "iblbake/export/export.h"
 #include "iblbake/io/text.h"
+#include "iblbake/pipeline/bake_file.h"
 
 namespace {
 // The presets table (docs/export.md), one block per preset.
@@ -188,6 +189,8 @@ int main(int argc, char** argv) {
         else if (encoding == "rgbm") wo.png_encoding = PngEncoding::Rgbm;
         else throw std::invalid_argument("unknown PNG encoding '" + encoding + "' (expected srgb or rgbm)");
 
+        // What to bake and write, decided here once and handed on.
+        const BakePlan plan = make_plan(bo, wo);
         FileLutCache cache(cache_dir);
         struct sigaction sa {};
         sa.sa_handler = request_stop;
@@ -199,7 +202,7 @@ int main(int argc, char** argv) {
             if (stage != "reading source") g_reading = false;
             return g_signal == 0;
         };
-        const nlohmann::json m = bake_file(source, outdir, bo, wo, progress, no_cache ? nullptr : &cache);
+        const nlohmann::json m = bake_file(source, outdir, plan, progress, no_cache ? nullptr : &cache);
         g_reading = false;
         for (const auto& w : m["warnings"]) std::cerr << "iblbake: warning: " << w.get<std::string>() << "\n";
         if (!quiet) {

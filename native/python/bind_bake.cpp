@@ -14,10 +14,11 @@
 #include "arrays.h"
 #include "bindings.h"
 #include "iblbake/bake/lut_cache.h"
-#include "iblbake/bake/bake_file.h"
 #include "iblbake/export/export.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/output_dir.h"
+#include "iblbake/pipeline/bake_file.h"
+#include "iblbake/pipeline/write.h"
 
 namespace py = pybind11;
 
@@ -36,8 +37,7 @@ T get_as(const pybind11::handle& v, const std::string& key, const char* type_nam
 
 // Everything the keyword options say.
 struct Parsed {
-    BakeOptions bo;
-    WriteOptions wo;
+    BakePlan plan;  // made once from the options, handed to every step
     ProgressFn progress;
     std::string source_path;
     std::string source_sha256;
@@ -47,12 +47,12 @@ struct Parsed {
 
 ProgressFn wrap_progress(const pybind11::object& cb);
 
-// Keyword options -> BakeOptions / WriteOptions / progress / LUT cache.
-// Unknown keys are an error. Runs with the GIL held.
+// Keyword options -> the plan (BakeOptions / WriteOptions) / progress / LUT
+// cache. Unknown keys are an error. Runs with the GIL held.
 Parsed parse_options(const pybind11::dict& kw) {
     Parsed out;
-    BakeOptions& bo = out.bo;
-    WriteOptions& wo = out.wo;
+    BakeOptions bo;
+    WriteOptions wo;
     pybind11::object progress = pybind11::none();
     std::string lut_cache_dir;
     for (auto item : kw) {
@@ -142,9 +142,8 @@ Parsed parse_options(const pybind11::dict& kw) {
         } else if (key == "lut_cache_dir") lut_cache_dir = v.is_none() ? std::string() : as_str();
         else value_error("unknown option '" + key + "'");
     }
-    bo.validate();
-    plan_presets(bo, wo.presets);  // a preset the options cannot serve fails here
-    bo = with_exports(bo, wo);     // the levels and files the presets need from the bake
+    // Validates the options; a preset they cannot serve fails here.
+    out.plan = make_plan(std::move(bo), std::move(wo));
     out.progress = wrap_progress(progress);
     if (!lut_cache_dir.empty()) out.cache.emplace(lut_cache_dir);
     return out;
@@ -215,12 +214,12 @@ std::string path_arg(const pybind11::handle& v, const char* what) {
 // held, before any work, so that a refused folder costs nothing.
 std::string checked_out_dir(const pybind11::object& out_dir, const Parsed& p) {
     if (out_dir.is_none()) {
-        if (!p.wo.presets.empty()) value_error("presets write files: give an out_dir");
+        if (!p.plan.write.presets.empty()) value_error("presets write files: give an out_dir");
         return {};
     }
     const std::string out = path_arg(out_dir, "out_dir");
     if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
-    p.wo.validate();
+    p.plan.write.validate();
     io::check_replaceable(out, p.source_path);
     return out;
 }
@@ -234,8 +233,8 @@ pybind11::dict run_bake(Parsed& p, const std::string& out, SourceInfo src, Compu
     {
         pybind11::gil_scoped_release release;
         r = compute(src);
-        manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
-                               : write_bake(r, out, p.bo, p.wo, src, p.progress, p.lut_cache());
+        manifest = out.empty() ? make_manifest(r, p.plan, src, nlohmann::json::object())
+                               : write_bake(r, out, p.plan, src, p.progress, p.lut_cache());
     }
     pybind11::dict d = result_dict(r);
     d["manifest"] = json_to_py(manifest);
@@ -271,8 +270,8 @@ void bind_bake(pybind11::module_& m) {
                                    ? io::sha256_file(s.path)
                                    : io::sha256_bytes(view.data, view.value_count() * sizeof(float));
                 }
-                return pixels.is_rgb() ? compute_bake_view(view, p.bo, p.progress, p.lut_cache())
-                                       : compute_bake(std::move(rgb), p.bo, p.progress, p.lut_cache());
+                return pixels.is_rgb() ? compute_bake_view(view, p.plan.bake, p.progress, p.lut_cache())
+                                       : compute_bake(std::move(rgb), p.plan.bake, p.progress, p.lut_cache());
             });
         },
         pybind11::arg("image"), pybind11::arg("out_dir") = pybind11::none(),
@@ -304,7 +303,7 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
             src.width = src.height = 1;
             return run_bake(p, out, src, [&](SourceInfo& s) {
                 s.sha256 = io::sha256_bytes(rgb.data(), sizeof(rgb));
-                return compute_constant_bake(rgb, p.bo, p.progress, p.lut_cache());
+                return compute_constant_bake(rgb, p.plan.bake, p.progress, p.lut_cache());
             });
         },
         pybind11::arg("rgb"), pybind11::arg("out_dir") = pybind11::none(),
@@ -323,7 +322,7 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
         "check_options",
         [](const pybind11::kwargs& kw) {
             Parsed p = parse_options(kw);
-            p.wo.validate();
+            p.plan.write.validate();
         },
         "Raise ValueError, with the CLI's message, if bake()'s keyword options are not valid; do nothing else.");
 
@@ -335,7 +334,7 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
             nlohmann::json manifest;
             {
                 pybind11::gil_scoped_release release;
-                manifest = bake_file(source, out_dir, p.bo, p.wo, p.progress, p.lut_cache());
+                manifest = bake_file(source, out_dir, p.plan, p.progress, p.lut_cache());
             }
             return json_to_py(manifest);
         },

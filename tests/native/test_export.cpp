@@ -16,18 +16,19 @@
 #include <random>
 #include <sstream>
 
-#include "iblbake/bake/bake_file.h"
 #include "iblbake/export/container.h"
 #include "iblbake/export/convert.h"
 #include "iblbake/export/export.h"
 #include "iblbake/export/layout.h"
 #include "iblbake/export/pixel.h"
-#include "iblbake/export/plan.h"
 #include "iblbake/export/preset.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
+#include "iblbake/pipeline/bake_file.h"
+#include "iblbake/pipeline/exports.h"
+#include "iblbake/pipeline/plan.h"
 #include "reference.h"
 
 using namespace iblbake;
@@ -677,11 +678,11 @@ TEST(Export, PresetLevelsAreIntegratedAtTheirOwnRoughness) {
     bo.lut = false;
     WriteOptions wo;
     wo.presets = parse_presets({"babylon,unity,three"});
-    const BakeOptions with = with_exports(bo, wo);
-    const BakeResult r = compute_bake(src, with);
+    const BakePlan plan = make_plan(bo, wo);
+    const BakeResult r = compute_bake(src, plan.bake);
     const ref::TexelTable table = ref::texel_table(src);
-    for (const PresetPlan& plan : plan_presets(with, wo.presets))
-        for (const PresetLevel& l : plan.levels) {
+    for (const PresetPlan& preset : plan.presets)
+        for (const PresetLevel& l : preset.levels) {
             if (l.roughness == 0.0 || l.face_size < 4) continue;
             const Cubemap& cube = baked_level(r, l.face_size, l.roughness);
             // The SPEC roughness nearest to this level's, as a resampling would use.
@@ -700,10 +701,10 @@ TEST(Export, PresetLevelsAreIntegratedAtTheirOwnRoughness) {
             }
             err /= count;
             err_wrong /= count;
-            EXPECT_LT(err, 0.01) << plan.preset.name << " level " << l.level << " r " << l.roughness;
+            EXPECT_LT(err, 0.01) << preset.preset.name << " level " << l.level << " r " << l.roughness;
             // Negative control: the nearest SPEC roughness would be clearly off.
             if (std::fabs(spec_r - l.roughness) > 0.03) {
-                EXPECT_GT(err_wrong, 3 * err) << plan.preset.name << " " << l.level;
+                EXPECT_GT(err_wrong, 3 * err) << preset.preset.name << " " << l.level;
             }
         }
 }
@@ -718,7 +719,7 @@ TEST(Export, SixPresetBakeWritesEveryFileAndTheManifestSaysWhat) {
     bo.lut_size = 32;
     WriteOptions wo;
     wo.presets = parse_presets({"khronos", "bevy", "three", "filament", "babylon", "unity", "source"});
-    const nlohmann::json m = bake_file(src.string(), dir / "out", bo, wo);
+    const nlohmann::json m = bake_file(src.string(), dir / "out", make_plan(bo, wo));
     ASSERT_TRUE(m.contains("presets"));
     for (const Preset& p : wo.presets) {
         const auto& e = m["presets"][p.name];
@@ -774,7 +775,7 @@ TEST(Export, MarkerColoursLandWhereEachMirrorPutsThem) {
     bo.lut = false;
     WriteOptions wo;
     wo.presets = parse_presets({"khronos", "three", "bevy:rgba16f:nozstd"});  // bevy's mirror, read as RGBA16F
-    bake_file((dir / "src.exr").string(), dir / "out", bo, wo);
+    bake_file((dir / "src.exr").string(), dir / "out", make_plan(bo, wo));
     // The centre texel of each face of level 0 in each KTX2 file.
     auto centre = [&](const std::string& preset, int face, float out[3]) {
         const Bytes b = read_file(dir / "out" / preset / "specular.ktx2");

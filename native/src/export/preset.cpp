@@ -330,4 +330,12 @@ double preset_roughness(const Preset& p, int m, int levels, int n0) {
     return 0.0;
 }
 
+std::vector<PresetLevel> preset_chain(const Preset& p, int n0) {
+    std::vector<PresetLevel> chain;
+    if (p.container == Container::Source) return chain;
+    const int levels = preset_level_count(p, n0);
+    for (int m = 0; m < levels; ++m) chain.push_back({m, std::max(1, n0 >> m), preset_roughness(p, m, levels, n0)});
+    return chain;
+}
+
 }  // namespace iblbake

@@ -7,9 +7,9 @@
 #include <cstring>
 #include <utility>
 
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
+#include "iblbake/util/parallel.h"
 #include "specular_kernel.h"
 
 namespace iblbake {

@@ -1,6 +1,7 @@
-// The bake pipeline: composes the integrators of ibl/ into SPEC.md's outputs.
-// compute_bake() does no I/O; write_bake() (bake/write.h) turns a result into
-// an output folder.
+// bake: composes the integrators of ibl/ into SPEC.md's outputs (this
+// header) and keeps the LUT cache (lut_cache.h), its only files. It knows no
+// preset, container or output folder: compute_bake() does no I/O, and
+// pipeline/ plans a bake, runs it and writes its files (pipeline/write.h).
 #pragma once
 #include <array>
 #include <functional>
@@ -29,7 +30,7 @@ enum class SpecularMethod {
 const char* specular_method_name(SpecularMethod m);
 SpecularMethod specular_method_from_name(const std::string& name);  // throws std::invalid_argument
 
-// Outputs beyond SPEC's, for engine exports (export/plan.h fills this from
+// Outputs beyond SPEC's, for engine exports (pipeline/plan.h fills this from
 // the presets asked for): more specular levels, each integrated at its own
 // roughness, and what else a preset writes.
 struct SpecularLevelRequest {
@@ -133,7 +134,7 @@ class LutCache;
 
 // Receives each output as soon as the bake has made it ("irradiance",
 // "specular_<m>", the LUT), final (scaled back, never changed again), so
-// that writing it (bake/write.h's BakeWriter) overlaps the rest of the bake.
+// that writing it (pipeline/write.h's BakeWriter) overlaps the rest of the bake.
 // The references stay valid until wait() returns; the bake calls wait()
 // before it returns or throws.
 class OutputSink {

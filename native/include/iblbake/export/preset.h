@@ -67,6 +67,15 @@ int preset_level_count(const Preset& p, int n0);
 // with base face n0 (the inverse of the engine's lod formula).
 double preset_roughness(const Preset& p, int m, int levels, int n0);
 
+// One level of a preset's chain.
+struct PresetLevel {
+    int level, face_size;
+    double roughness;
+};
+// The preset's chain for base face n0, level 0 first: face max(1, n0 >> m)
+// at preset_roughness(). Empty for the source preset (it writes no cube).
+std::vector<PresetLevel> preset_chain(const Preset& p, int n0);
+
 // The curves themselves (m of T = top level; exact inverses of the engines'
 // roughness -> lod mappings, ENGINES.md section 1).
 double roughness_linear(int m, int top);

@@ -1,3 +1,7 @@
+// ibl: the integrators (the source and its summaries, bins, irradiance,
+// specular, the BRDF LUT), each from images to cubes or tables. Above image/;
+// beside io/, which it never includes: no integrator reads or writes a file.
+//
 // The source environment: cleaning bad texels, lookups, the split into a
 // bounded "rest" and exactly-integrated "hot" texels, energy-exact reduction
 // to weighted points, SH projection. All directions returned are engine

@@ -1,3 +1,7 @@
+// io: files in and out (images, hashes, atomic output folders, printable
+// text). Above image/; beside ibl/, which it never includes: reading and
+// writing know no integrator.
+//
 // All image file I/O. EXR through OpenEXR and PNG through libpng directly;
 // other formats through OpenImageIO, in a plugin loaded only when such a file
 // is read (src/io/oiio_plugin.cpp), so baking EXR starts in milliseconds.

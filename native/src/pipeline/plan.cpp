@@ -1,24 +1,43 @@
-#include "iblbake/export/plan.h"
+#include "iblbake/pipeline/plan.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace iblbake {
+
+void WriteOptions::validate() const {
+    if (!exr && !png) throw std::invalid_argument("no output format: ask for exr, png or both");
+    if (!std::isfinite(exposure) || std::fabs(exposure) > 64.0f)
+        throw std::invalid_argument("exposure must be a finite number of stops in -64..64");
+    if (!manifest_extra.is_object()) throw std::invalid_argument("manifest_extra must be a JSON object");
+    for (size_t i = 0; i < presets.size(); ++i)
+        for (size_t k = 0; k < i; ++k)
+            if (presets[i].name == presets[k].name)
+                throw std::invalid_argument("preset '" + presets[i].name + "' is given twice");
+    if (!std::isfinite(rgbm_range) || !(rgbm_range > 0.0f) || rgbm_range > 1e6f)
+        throw std::invalid_argument("rgbm_range must be > 0 and finite");
+}
+
+BakePlan make_plan(BakeOptions bo, WriteOptions wo) {
+    bo.validate();
+    BakePlan plan;
+    plan.presets = plan_presets(bo, wo.presets);
+    bo.extra = extra_outputs(bo, plan.presets);
+    plan.bake = std::move(bo);
+    plan.write = std::move(wo);
+    return plan;
+}
 
 std::vector<PresetPlan> plan_presets(const BakeOptions& bo, const std::vector<Preset>& presets) {
     std::vector<PresetPlan> plans;
     for (const Preset& p : presets) {
-        PresetPlan plan{p, bo.face_size, {}};
         if (p.container == Container::Env && (bo.face_size & (bo.face_size - 1)))
             throw std::invalid_argument("preset '" + p.name + "' needs a power-of-two face size (Babylon's .env), not " +
                                         std::to_string(bo.face_size));
-        if (p.container != Container::Source) {
-            const int levels = preset_level_count(p, bo.face_size);
-            for (int m = 0; m < levels; ++m)
-                plan.levels.push_back({m, std::max(1, bo.face_size >> m), preset_roughness(p, m, levels, bo.face_size)});
-        }
-        plans.push_back(std::move(plan));
+        plans.push_back({p, bo.face_size, preset_chain(p, bo.face_size)});
     }
     return plans;
 }
