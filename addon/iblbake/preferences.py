@@ -3,8 +3,7 @@ import bpy
 from bpy.props import StringProperty
 
 from .properties import ENGINE_ITEMS, BakeOptionProps
-
-ADDON_ID = __package__  # "iblbake", or "bl_ext.<repo>.iblbake" as a 4.2+ extension
+from .scene_settings import ADDON_ID
 
 
 class IBLBAKE_AddonPreferences(BakeOptionProps, bpy.types.AddonPreferences):
@@ -25,11 +24,6 @@ class IBLBAKE_AddonPreferences(BakeOptionProps, bpy.types.AddonPreferences):
         layout.prop(self, "default_output_dir")
         layout.prop(self, "lut_cache_dir")
         draw_options(layout, self)
-
-
-def engine_ids():
-    """The engine presets' names, in the table's order."""
-    return [item[0] for item in ENGINE_ITEMS]
 
 
 def draw_engines(layout, props):
@@ -65,14 +59,6 @@ def draw_options(layout, props, engines=True):
     col = layout.column(align=True)
     col.prop(props, "render_width")
     col.prop(props, "render_samples")
-
-
-def get(context=None):
-    """The preferences, or None when the add-on is not enabled as such
-    (imported by a script instead): callers fall back to the defaults."""
-    context = context or bpy.context
-    addon = context.preferences.addons.get(ADDON_ID)
-    return addon.preferences if addon else None
 
 
 classes = (IBLBAKE_AddonPreferences,)
