@@ -28,7 +28,7 @@ if bpy is not None:
         # Each module after the ones it imports, so that it binds their new versions.
         for _m in (core.settings, core.needs, core.world, core.native, core.describe, core.pipeline,  # noqa: F821
                    core.job, compat, state, properties, world_reader, scene_needs, scene_settings,  # noqa: F821
-                   operators, outputs, preferences, panel):  # noqa: F821
+                   operators, outputs, panel, preferences):  # noqa: F821
             importlib.reload(_m)
     from . import core  # noqa: F401
     from .core import describe  # noqa: F401

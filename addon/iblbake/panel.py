@@ -1,12 +1,14 @@
 """World Properties > Image-Based Lighting: how the world is read, where the
-files go, what will be baked (in words), the button - or, while a bake runs,
-its progress bar with a Cancel button - and the last bake's files and preview."""
+files go, what will be baked (in words), the options (whose rows the add-on
+preferences draw too), the button - or, while a bake runs, its progress bar
+with a Cancel button - and the last bake's files and preview."""
 import bpy
 from bpy.app.handlers import persistent
 
-from . import operators, outputs, preferences, state, world_reader
+from . import operators, outputs, state, world_reader
 from .core import describe
 from .core.world import COLOR, IMAGE
+from .properties import ENGINE_ITEMS
 from .scene_settings import (addon_preferences, engine_names, gather_settings, options_of, output_template,
                              scene_needs_for)
 
@@ -160,6 +162,41 @@ def _wrap(text, width):
     return [describe.shorten_middle(ln, width) for ln in lines] or [""]
 
 
+def draw_engines(layout, props):
+    """The engine presets as toggles (several may be ticked)."""
+    if not ENGINE_ITEMS:
+        return
+    col = layout.column(align=True)
+    col.label(text="Also Export For")
+    for start in range(0, len(ENGINE_ITEMS), 4):
+        row = col.row(align=True)
+        for name, label, _desc, _bit in ENGINE_ITEMS[start:start + 4]:
+            row.prop_enum(props, "engines", name, text=label)
+
+
+def draw_options(layout, props, engines=True):
+    """The shared options, as the World panel and the preferences show them."""
+    if engines:
+        draw_engines(layout, props)
+    col = layout.column(align=True)
+    col.prop(props, "face_size")
+    col.prop(props, "mip_count")
+    col.prop(props, "irradiance_size")
+    col = layout.column(align=True)
+    col.prop(props, "lut_size")
+    col.prop(props, "lut_model")
+    row = layout.row(heading="Formats")
+    row.prop(props, "write_exr")
+    row.prop(props, "write_png")
+    row.prop(props, "write_preview")
+    if props.write_png:
+        layout.prop(props, "png_encoding")
+        layout.prop(props, "exposure")
+    col = layout.column(align=True)
+    col.prop(props, "render_width")
+    col.prop(props, "render_samples")
+
+
 class IBLBAKE_PT_world(bpy.types.Panel):
     bl_label = "Image-Based Lighting"
     bl_idname = "IBLBAKE_PT_world"
@@ -206,13 +243,13 @@ class IBLBAKE_PT_world(bpy.types.Panel):
         row.prop(props, "bake_irradiance", toggle=True)
         row.prop(props, "bake_specular", toggle=True)
         row.prop(props, "bake_lut", toggle=True)
-        preferences.draw_engines(box, options_of(context, scene))
+        draw_engines(box, options_of(context, scene))
 
         layout.prop(props, "use_scene_options")
         if props.use_scene_options or addon_preferences(context) is None:
             sub = layout.column()
             sub.use_property_split = True
-            preferences.draw_options(sub, props, engines=False)
+            draw_options(sub, props, engines=False)
         layout.prop(props, "force")
 
         if state.RUN is not None:
