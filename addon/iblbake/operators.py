@@ -134,7 +134,7 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
             if IBLBAKE_OT_bake._running is not self:  # released by a file load (see _release_on_load)
                 return self._finish(context, cancelled=True)
             if event.type == "ESC" and event.value == "PRESS" and not self._run.cancel_requested:
-                self._run.cancel()  # and polled at once: a run that has started nothing ends here
+                self._stop(context)  # and polled at once: a run that has started nothing ends here
             elif event.type != "TIMER":
                 return {"PASS_THROUGH"}
             return self._advance(context)
@@ -142,6 +142,12 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
             self._run.cancel()
             self._cleanup(context)
             return self._fail(self._scene_name, _words(e, ours=()), self._settings.out_dir)
+
+    def _stop(self, context):
+        """Esc or the Cancel button: the run stops its stages, never waiting
+        for them here; the panel says "Cancelling" until they have stopped."""
+        self._run.cancel()
+        self._status(context)
 
     def _advance(self, context):
         self._run.poll()
@@ -202,7 +208,7 @@ class IBLBAKE_OT_cancel(bpy.types.Operator):
     def execute(self, context):
         op = IBLBAKE_OT_bake._running
         if op is not None:  # stop the work now; the modal operator reports at its next timer event
-            op._run.cancel()
+            op._stop(context)
         return {"FINISHED"}
 
 

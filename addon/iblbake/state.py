@@ -1,6 +1,8 @@
 """What the panel shows that is not a setting: the running bake's stage and
-progress, and each scene's last result. Kept in this module, never in the
-.blend (an old failure must not greet a user who reopens a file)."""
+progress, and each scene's last result (set_baked, set_failed and
+set_cancelled record it and redraw the editors that show it). Kept in this
+module, never in the .blend (an old failure must not greet a user who
+reopens a file)."""
 import os
 from dataclasses import dataclass, field, replace
 from typing import List, Optional, Tuple
