@@ -159,7 +159,7 @@ class BakeRun:
         if self._render is not None:
             self._render.cleanup()
 
-    # -- the steps ----------------------------------------------------------
+    # -- the steps -----------------------------------------------------------
     def _start(self):
         if self.source.path == COLOR:
             self._start_thread(None)
@@ -252,7 +252,7 @@ class BakeRun:
             else:
                 self._end(cancelled=True)
 
-    # -- the outcome ------------------------------------------------------------
+    # -- the outcome ---------------------------------------------------------
     def _conclude(self, job):
         if job.cancelled or job.error is not None:
             self._end(cancelled=job.cancelled, error=job.error)
