@@ -1,7 +1,7 @@
 """iblbake: bake a world's image-based lighting (irradiance, GGX prefiltered
 specular, BRDF LUT) from World Properties or `blender -b`. This file only
-registers; see operators.py, panel.py, preferences.py, properties.py and the
-bpy-free core/ package."""
+registers; see operators.py, outputs.py, panel.py, preferences.py,
+properties.py, scene_settings.py and the bpy-free core/ package."""
 
 bl_info = {
     "name": "iblbake",
@@ -25,15 +25,17 @@ except ImportError:  # iblbake.core used outside Blender (tests, pipelines): not
 if bpy is not None:
     if "operators" in locals():  # F8 / script reload: re-import the submodules
         import importlib
-        for _m in (core.settings, core.needs, core.world, core.native, core.pipeline, core.job,  # noqa: F821
-                   core.describe, compat, state, properties, preferences, world_reader, scene_needs,  # noqa: F821
-                   operators, panel):  # noqa: F821
+        # Each module after the ones it imports, so that it binds their new versions.
+        for _m in (core.settings, core.needs, core.world, core.native, core.describe, core.pipeline,  # noqa: F821
+                   core.job, compat, state, properties, world_reader, scene_needs, scene_settings,  # noqa: F821
+                   operators, outputs, panel, preferences):  # noqa: F821
             importlib.reload(_m)
     from . import core  # noqa: F401
     from .core import describe  # noqa: F401
-    from . import compat, state, operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
+    from . import (compat, state, operators, outputs, panel, preferences, properties, scene_needs,  # noqa: F401
+                   scene_settings, world_reader)
 
-    _CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
+    _CLASSES = properties.classes + preferences.classes + operators.classes + outputs.classes + panel.classes
     _HANDLERS = operators.HANDLERS + panel.HANDLERS
 
 

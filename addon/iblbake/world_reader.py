@@ -17,7 +17,7 @@ import numpy as np
 
 from .compat import uses_nodes
 from .core import native
-from .core.world import COLOR, IMAGE, RENDER, Mapping, WorldSource
+from .core.world import COLOR, IMAGE, RENDER, Mapping, NeedsRender, WorldSource
 
 
 class WorldError(Exception):
@@ -188,10 +188,6 @@ def _mapping(vector_sock):
             return None, "the Mapping node's %s is linked" % key
         vals[key] = tuple(float(v) for v in sock.default_value)
     return Mapping(node.vector_type, vals["Location"], vals["Rotation"], vals["Scale"]), ""
-
-
-class NeedsRender(Exception):
-    """The image's pixels are not what Cycles shows (e.g. straight alpha)."""
 
 
 def alpha_matters(img, colorspace: str) -> bool:

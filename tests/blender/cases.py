@@ -18,7 +18,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "addon"))
 import iblbake  # noqa: E402
-from iblbake import operators, world_reader  # noqa: E402
+from iblbake import operators, scene_settings, world_reader  # noqa: E402
 from iblbake.compat import ALWAYS_NODES  # noqa: E402
 from iblbake.core import native, pipeline  # noqa: E402
 from iblbake.core.job import BakeJob  # noqa: E402
@@ -285,7 +285,7 @@ def case_needs_edges(args):
 
     def needs():
         from iblbake.core.settings import BakeSettings
-        n = operators.scene_needs_for(scene, BakeSettings(face_size=32))
+        n = scene_settings.scene_needs_for(scene, BakeSettings(face_size=32))
         return {"specular": n.specular, "levels": list(n.levels) if n.levels else None}
 
     out["diffuse"] = needs()

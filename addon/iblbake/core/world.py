@@ -141,6 +141,10 @@ def apply_nodes(src: WorldSource, img: np.ndarray, remap=None) -> np.ndarray:
     return img
 
 
+class NeedsRender(Exception):
+    """The image's pixels are not what Cycles shows (e.g. straight alpha)."""
+
+
 class FileNotAsBlenderShowsIt(Exception):
     """The file's pixels, read by iblbake itself, may differ from what Blender
     shows for the image (alpha, colour space): read Blender's buffer instead."""

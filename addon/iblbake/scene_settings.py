@@ -1,0 +1,91 @@
+"""What a bake of a scene is asked to do, read from bpy: the add-on
+preferences' defaults (or the scene's own options) and the scene's choices
+as one core.settings.BakeSettings, the output folder resolved, and what the
+scene's materials need."""
+import os
+import re
+
+import bpy
+
+from . import scene_needs
+from .core.needs import needs_from_lobes
+from .core.pipeline import BakeError
+from .core.settings import BakeSettings
+from .properties import ENGINE_ITEMS
+
+ADDON_ID = __package__  # "iblbake", or "bl_ext.<repo>.iblbake" as a 4.2+ extension
+
+OPTION_NAMES = ("face_size", "irradiance_size", "mip_count", "lut_size", "lut_model", "png_encoding", "exposure",
+                "render_width", "render_samples")
+
+
+def addon_preferences(context=None):
+    """The preferences, or None when the add-on is not enabled as such
+    (imported by a script instead): callers fall back to the defaults."""
+    context = context or bpy.context
+    addon = context.preferences.addons.get(ADDON_ID)
+    return addon.preferences if addon else None
+
+
+def options_of(context, scene):
+    """Where the bake's options come from: the scene's own, or the preferences'."""
+    prefs = addon_preferences(context)
+    return scene.iblbake if (scene.iblbake.use_scene_options or prefs is None) else prefs
+
+
+def _safe(name: str) -> str:
+    """A name as one path component: never empty, never "." or ".."."""
+    s = re.sub(r"[^\w.-]+", "_", name).strip("_")
+    return "untitled" if s.strip(".") == "" else s
+
+
+def resolve_output_dir(scene, template: str) -> str:
+    blend = bpy.data.filepath
+    text = template.replace("{blend}", _safe(os.path.splitext(os.path.basename(blend))[0] if blend else "untitled"))
+    text = text.replace("{scene}", _safe(scene.name))
+    text = text.replace("{world}", _safe(scene.world.name if scene.world else "no_world"))
+    if text.startswith("//") and not blend:
+        raise BakeError("the output folder %r is relative to the .blend file, which is not saved yet: "
+                        "save the file, or choose an absolute folder" % template)
+    return os.path.abspath(os.path.expanduser(bpy.path.abspath(text)))
+
+
+def output_template(context, scene) -> str:
+    prefs = addon_preferences(context)
+    return scene.iblbake.output_dir or (prefs.default_output_dir if prefs else "") or "//ibl/{world}"
+
+
+def engine_names(props) -> list:
+    """The engine presets ticked in `props` (an ENUM_FLAG set), in the table's order."""
+    chosen = set(getattr(props, "engines", set()) or ())
+    return [item[0] for item in ENGINE_ITEMS if item[0] in chosen]
+
+
+def gather_settings(context, scene) -> BakeSettings:
+    """The preferences' defaults (or the scene's own options) and the scene's
+    choices, as one BakeSettings."""
+    prefs = addon_preferences(context)
+    props = scene.iblbake
+    src = options_of(context, scene)
+    s = BakeSettings()
+    for name in OPTION_NAMES:
+        setattr(s, name, getattr(src, name))
+    s.formats = [f for f, on in (("exr", src.write_exr), ("png", src.write_png)) if on]
+    s.presets = engine_names(src)
+    s.preview = bool(getattr(src, "write_preview", True))
+    s.irradiance, s.specular, s.lut = props.bake_irradiance, props.bake_specular, props.bake_lut
+    s.auto_skip, s.force = props.auto_skip, props.force
+    if prefs is not None:
+        s.lut_cache_dir = bpy.path.abspath(prefs.lut_cache_dir) if prefs.lut_cache_dir else ""
+    s.out_dir = resolve_output_dir(scene, output_template(context, scene))
+    return s
+
+
+def scene_needs_for(scene, settings: BakeSettings):
+    lobes, surfaces = scene_needs.scene_lobes(scene)
+    return needs_from_lobes(lobes, settings.resolved_mip_count(), surfaces)
+
+
+def manifest_extra(scene) -> dict:
+    """What the manifest's "blender" section says about where the bake came from."""
+    return {"scene": scene.name, "blend_file": bpy.data.filepath or None, "blender_version": bpy.app.version_string}
