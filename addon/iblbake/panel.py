@@ -8,7 +8,8 @@ from bpy.app.handlers import persistent
 from . import operators, outputs, state, world_reader
 from .core import describe
 from .core.world import COLOR, IMAGE
-from .properties import ENGINE_ITEMS
+from .core import options
+from .properties import ENGINE_ITEMS, ROWS
 from .scene_settings import (addon_preferences, engine_names, gather_settings, options_of, output_template,
                              scene_needs_for)
 
@@ -171,30 +172,33 @@ def draw_engines(layout, props):
     for start in range(0, len(ENGINE_ITEMS), 4):
         row = col.row(align=True)
         for name, label, _desc, _bit in ENGINE_ITEMS[start:start + 4]:
-            row.prop_enum(props, "engines", name, text=label)
+            row.prop_enum(props, "presets", name, text=label)
 
 
 def draw_options(layout, props, engines=True):
-    """The shared options, as the World panel and the preferences show them."""
+    """The shared options, as the World panel and the preferences show them:
+    a row per option of the table (core/options.py), in its order; numbers
+    next to each other share a column, a list is a row of toggles, and an
+    option another one makes moot (PNG's encoding without PNG) is hidden."""
     if engines:
         draw_engines(layout, props)
-    col = layout.column(align=True)
-    col.prop(props, "face_size")
-    col.prop(props, "mip_count")
-    col.prop(props, "irradiance_size")
-    col = layout.column(align=True)
-    col.prop(props, "lut_size")
-    col.prop(props, "lut_model")
-    row = layout.row(heading="Formats")
-    row.prop(props, "write_exr")
-    row.prop(props, "write_png")
-    row.prop(props, "write_preview")
-    if props.write_png:
-        layout.prop(props, "png_encoding")
-        layout.prop(props, "exposure")
-    col = layout.column(align=True)
-    col.prop(props, "render_width")
-    col.prop(props, "render_samples")
+    col = None
+    for row in ROWS:
+        name = row["name"]
+        if name in options.SCENE_OUTPUTS or name == "presets":
+            continue  # the scene's outputs and the engines have their own rows
+        need = options.REQUIRES.get(name)
+        if need and need[1] not in getattr(props, need[0]):
+            continue
+        if row["kind"] in ("int", "float"):
+            col = col or layout.column(align=True)
+            col.prop(props, name)
+            continue
+        col = None
+        if row["kind"] == "list":
+            layout.row(heading=row["label"]).prop(props, name, expand=True)
+        else:
+            layout.prop(props, name)
 
 
 class IBLBAKE_PT_world(bpy.types.Panel):
@@ -240,9 +244,8 @@ class IBLBAKE_PT_world(bpy.types.Panel):
             for i, part in enumerate(_wrap(line, width - 2)):
                 col.label(text=part, icon="INFO" if i == 0 else "BLANK1")
         row = box.row(align=True)
-        row.prop(props, "bake_irradiance", toggle=True)
-        row.prop(props, "bake_specular", toggle=True)
-        row.prop(props, "bake_lut", toggle=True)
+        for name in options.SCENE_OUTPUTS:
+            row.prop(props, name, toggle=True)
         draw_engines(box, options_of(context, scene))
 
         layout.prop(props, "use_scene_options")

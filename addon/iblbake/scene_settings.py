@@ -11,12 +11,11 @@ from . import scene_needs
 from .core.needs import needs_from_lobes
 from .core.pipeline import BakeError
 from .core.settings import BakeSettings
-from .properties import ENGINE_ITEMS
+from .core.options import SCENE_OUTPUTS
+from .properties import ENGINE_ITEMS, ROWS
 
 ADDON_ID = __package__  # "iblbake", or "bl_ext.<repo>.iblbake" as a 4.2+ extension
 
-OPTION_NAMES = ("face_size", "irradiance_size", "mip_count", "lut_size", "lut_model", "png_encoding", "exposure",
-                "render_width", "render_samples")
 
 
 def addon_preferences(context=None):
@@ -57,8 +56,16 @@ def output_template(context, scene) -> str:
 
 def engine_names(props) -> list:
     """The engine presets ticked in `props` (an ENUM_FLAG set), in the table's order."""
-    chosen = set(getattr(props, "engines", set()) or ())
+    chosen = set(getattr(props, "presets", set()) or ())
     return [item[0] for item in ENGINE_ITEMS if item[0] in chosen]
+
+
+def option_value(row, props):
+    """A property's value as BakeSettings holds it (an ENUM_FLAG set as a list in the table's order)."""
+    value = getattr(props, row["name"])
+    if row["kind"] == "list":
+        return [c["value"] for c in row["choices"] if c["value"] in value]
+    return value
 
 
 def gather_settings(context, scene) -> BakeSettings:
@@ -68,12 +75,8 @@ def gather_settings(context, scene) -> BakeSettings:
     props = scene.iblbake
     src = options_of(context, scene)
     s = BakeSettings()
-    for name in OPTION_NAMES:
-        setattr(s, name, getattr(src, name))
-    s.formats = [f for f, on in (("exr", src.write_exr), ("png", src.write_png)) if on]
-    s.presets = engine_names(src)
-    s.preview = bool(getattr(src, "write_preview", True))
-    s.irradiance, s.specular, s.lut = props.bake_irradiance, props.bake_specular, props.bake_lut
+    for row in ROWS:  # the scene's outputs from the scene, the options from `src`
+        setattr(s, row["name"], option_value(row, props if row["name"] in SCENE_OUTPUTS else src))
     s.auto_skip, s.force = props.auto_skip, props.force
     if prefs is not None:
         s.lut_cache_dir = bpy.path.abspath(prefs.lut_cache_dir) if prefs.lut_cache_dir else ""

@@ -155,7 +155,7 @@ def case_orientation(args):
         path = save_exr(os.path.join(WORK, "field.exr"), direction_field(512, 256))
     rot = tuple(float(a) for a in args.get("rotation", "0,0,0").split(","))
     image_world(path, float(args.get("strength", 1.0)), rot, args.get("mapping_type", "POINT"))
-    res = bake(os.path.join(WORK, "out"), bake_lut=False, mip_count=2)
+    res = bake(os.path.join(WORK, "out"), lut=False, mip_count=2)
     res["probes"] = PROBES
     res["cycles"] = render_directions(PROBES)
     return res
@@ -174,7 +174,7 @@ def case_sky(args):
     nt.links.new(sky.outputs["Color"], nt.nodes["Background"].inputs["Color"])
     scene.world = world
     scene.iblbake.render_width, scene.iblbake.render_samples = 256, 16
-    res = bake(os.path.join(WORK, "out"), bake_lut=False, mip_count=2)
+    res = bake(os.path.join(WORK, "out"), lut=False, mip_count=2)
     probes = [(0, 0, 1), (0.7, 0.0, 0.714), (-0.5, 0.6, 0.624), (0.0, -0.8, 0.6), (-0.9, -0.1, 0.42)]
     res["probes"] = probes
     res["cycles"] = render_directions(probes)
@@ -332,7 +332,7 @@ def case_light_path(args):
     nt.links.new(mix.outputs[0], nt.nodes["World Output"].inputs["Surface"])
     world.cycles_visibility.camera = False
     scene.iblbake.render_width, scene.iblbake.render_samples = 64, 4
-    res = bake(os.path.join(WORK, "out"), bake_lut=False)
+    res = bake(os.path.join(WORK, "out"), lut=False)
     return res
 
 

@@ -1,5 +1,7 @@
 """The Blender add-on in headless Blender (see cases.py for the scenes)."""
+import json
 import os
+import re
 import subprocess
 
 import numpy as np
@@ -310,3 +312,42 @@ def test_a_zip_built_for_another_python_is_refused_with_the_reason(tmp_path):
     assert "ENABLED=False" in p.stdout and "REGISTERED=False" in p.stdout, p.stdout
     error = [line for line in p.stdout.splitlines() if line.startswith("ERROR=")][0]
     assert "built for Python 3.0" in error and "this Blender runs Python 3." in error, error
+
+
+def test_bake_worlds_flags_and_the_addons_properties_are_the_tables(tmp_path):
+    """bake_world.py's argparse and the add-on's properties are made from
+    the options table (core/options.py: the native rows offered in Blender
+    and the add-on's own): a flag and a property per row, with the row's
+    label, default and range."""
+    p = bake_world("--help")
+    assert p.returncode == 0, p.stderr
+    flags = set(re.findall(r"(--[a-z0-9-]+)", p.stdout))
+    script = tmp_path / "rows.py"
+    script.write_text(
+        "import bpy, json, sys\n"
+        "sys.path.insert(0, %r)\n"
+        "import iblbake\n"
+        "iblbake.register()\n"
+        "from iblbake.core import options\n"
+        "rows = options.rows()\n"
+        "props = bpy.context.scene.iblbake\n"
+        "out = []\n"
+        "for r in rows:\n"
+        "    rna = props.bl_rna.properties.get(r['name'])\n"
+        "    out.append(dict(name=r['name'], flag=options.cli_flag(r), label=rna.name if rna else None,\n"
+        "                    want=r['label'], default=getattr(props, r['name'], None), row_default=r['default'],\n"
+        "                    min=getattr(rna, 'hard_min', None), row_min=r.get('min')))\n"
+        "print('ROWS=' + json.dumps(out, default=sorted))\n" % os.path.join(ROOT, "addon"))
+    q = run_blender(["--python-exit-code", "1", "--python", str(script)])
+    assert q.returncode == 0, q.stdout[-2000:] + q.stderr[-2000:]
+    rows = json.loads([ln for ln in q.stdout.splitlines() if ln.startswith("ROWS=")][0][5:])
+    names = {r["name"] for r in rows}
+    assert {"face_size", "formats", "presets", "irradiance", "render_width"} <= names
+    for r in rows:
+        assert r["flag"] in flags, r
+        assert r["label"] == r["want"], r
+        default = sorted(r["default"]) if isinstance(r["default"], list) else r["default"]
+        row_default = sorted(r["row_default"]) if isinstance(r["row_default"], list) else r["row_default"]
+        assert default == pytest.approx(row_default) if isinstance(default, float) else default == row_default, r
+        if r["row_min"] is not None and r["min"] is not None:
+            assert r["min"] == pytest.approx(r["row_min"]), r

@@ -33,7 +33,7 @@ def test_d2_an_image_blender_cannot_load_is_an_error_not_a_magenta_render(tmp_pa
     (["--mips", "100"], "mip_count must be in 0..20"),
     (["--lut-size", "5000"], "lut_size must be in 1..4096"),
     (["--irradiance-size", "9999"], "irradiance_size must be in 1..4096"),
-    (["--render-width", "99999"], "render width must be in 16..16384"),
+    (["--render-width", "99999"], "render_width must be in 16..16384"),
     (["--strength", "nan"], "must be a finite number"),
     (["--exposure", "inf"], "must be a finite number"),
 ])

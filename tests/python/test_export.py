@@ -280,7 +280,7 @@ def test_bad_presets_are_value_errors(tmp_path):
         ib.bake(img, None, presets=["three"])
     with pytest.raises(ValueError, match="power-of-two"):
         ib.bake(img, str(tmp_path / "b"), presets=["babylon"], face_size=24)
-    with pytest.raises(ValueError, match="list of preset names"):
+    with pytest.raises(ValueError, match=r"presets must be a list of names \(e.g. \['three'\]\)"):
         ib.bake(img, str(tmp_path / "c"), presets="three")
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 

@@ -13,6 +13,7 @@
 #include <limits>
 
 #include "iblbake/bake/lut_cache.h"
+#include "iblbake/bake/options.h"
 #include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/irradiance.h"
@@ -336,35 +337,19 @@ SpecularMethod specular_method_from_name(const std::string& name) {
 }
 
 void BakeOptions::validate() const {
-    // 4096: a cube of 6 x 4096^2 RGB floats is 1.2 GB; its cross and files about as much again.
-    check(face_size >= 1 && face_size <= 4096, "face_size must be in 1..4096");
-    check(irradiance_size >= 1 && irradiance_size <= 4096, "irradiance_size must be in 1..4096");
-    check(mip_count >= 0 && mip_count <= 20, "mip_count must be in 0..20 (0 = full chain)");
-    check(lut_size >= 1 && lut_size <= 4096, "lut_size must be in 1..4096");
-    check(specular_quality.rings >= 1 && specular_quality.rings <= 256, "specular rings must be in 1..256");
-    check(specular_quality.min_phi >= 1 && specular_quality.max_phi >= specular_quality.min_phi &&
-              specular_quality.max_phi <= 4096,
+    // Each option's own range (bake/options.h: 4096 on a side, since a cube
+    // of 6 x 4096^2 RGB floats is 1.2 GB and its cross and files as much again).
+    for (const OptionRow<BakeOptions>& row : bake_option_rows()) check_option_range(row, *this);
+    // What ties options together.
+    check(specular_quality.max_phi >= specular_quality.min_phi,
           "specular phi counts must satisfy 1 <= min_phi <= max_phi <= 4096");
-    check(std::isfinite(specular_quality.lod_bias) && std::fabs(specular_quality.lod_bias) <= 16,
-          "lod_bias must be finite, in -16..16");
-    check(lut_quality.phi_points >= 1 && lut_quality.phi_points <= 256, "LUT phi points must be in 1..256");
-    check(lut_quality.u_points >= 1 && lut_quality.u_points <= 256, "LUT u points must be in 1..256");
-    check(lut_quality.row_nodes == 0 || (lut_quality.row_nodes >= 4 && lut_quality.row_nodes <= 4096),
+    check(lut_quality.row_nodes == 0 || lut_quality.row_nodes >= 4,
           "LUT row nodes must be 0 (every texel) or in 4..4096");
-    check(specular_base_face == 0 || (specular_base_face >= 1 && specular_base_face <= 4096 &&
-                                      (specular_base_face & (specular_base_face - 1)) == 0),
+    check((specular_base_face & (specular_base_face - 1)) == 0,
           "specular_base_face must be 0 (automatic) or a power of two up to 4096");
-    check(irradiance_bins >= 2 && irradiance_bins <= 4096 && (irradiance_bins & (irradiance_bins - 1)) == 0,
-          "irradiance_bins must be a power of two in 2..4096");
-    check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.02 && hierarchical.eps <= 2.0,
-          "specular eps must be in 0.02..2 (the default 0.5 keeps every texel within about 0.4 %; error grows as eps^3 to eps^4)");
-    check(hierarchical.tile >= 0 && hierarchical.tile <= 256, "specular tile must be in 0..256 (0: automatic)");
-    check(irradiance_exact_face >= 1 && irradiance_exact_face <= 4096, "irradiance_exact_face must be in 1..4096");
-    check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
-    check(max_hot >= 0 && max_hot <= 1 << 20, "max_hot must be in 0..1048576");
-    check(threads >= 0 && threads <= 1024, "threads must be in 0..1024 (0: all cores)");
+    check((irradiance_bins & (irradiance_bins - 1)) == 0, "irradiance_bins must be a power of two in 2..4096");
     const int mips = resolved_mip_count();
-    check(first_level >= 0 && first_level < mips, "first_level must be in 0..mip_count-1");
+    check(first_level < mips, "first_level must be in 0..mip_count-1");
     check(last_level == -1 || (last_level >= first_level && last_level < mips),
           "last_level must be -1 (the last) or in first_level..mip_count-1");
     for (const SpecularLevelRequest& e : extra.specular)

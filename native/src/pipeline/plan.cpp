@@ -8,19 +8,6 @@
 
 namespace iblbake {
 
-void WriteOptions::validate() const {
-    if (!exr && !png) throw std::invalid_argument("no output format: ask for exr, png or both");
-    if (!std::isfinite(exposure) || std::fabs(exposure) > 64.0f)
-        throw std::invalid_argument("exposure must be a finite number of stops in -64..64");
-    if (!manifest_extra.is_object()) throw std::invalid_argument("manifest_extra must be a JSON object");
-    for (size_t i = 0; i < presets.size(); ++i)
-        for (size_t k = 0; k < i; ++k)
-            if (presets[i].name == presets[k].name)
-                throw std::invalid_argument("preset '" + presets[i].name + "' is given twice");
-    if (!std::isfinite(rgbm_range) || !(rgbm_range > 0.0f) || rgbm_range > 1e6f)
-        throw std::invalid_argument("rgbm_range must be > 0 and finite");
-}
-
 BakePlan make_plan(BakeOptions bo, WriteOptions wo) {
     bo.validate();
     BakePlan plan;
