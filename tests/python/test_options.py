@@ -89,3 +89,21 @@ def test_presets_are_listed_once_in_the_table():
 
 if __name__ == "__main__":
     sys.exit(pytest.main([__file__]))
+
+
+def test_rotation_turns_the_world_about_its_up_axis():
+    """The worked example of a new option (one row, bake/options.cpp, plus
+    its use, bake.cpp's orient()): a turn by whole texels is the source's
+    columns shifted (Blender's Mapping node, Point, Z: direction d shows
+    L(Rz d), so +45 degrees on a 64-texel-wide source reads 8 columns on)."""
+    np = pytest.importorskip("numpy")
+    src = np.random.default_rng(1).random((32, 64, 3), dtype=np.float32) + 0.1
+    turned = ib.bake(src, None, face_size=16, mip_count=3, rotation=45.0, lut=False)
+    shifted = ib.bake(np.ascontiguousarray(np.roll(src, 8, axis=1)), None, face_size=16, mip_count=3, lut=False)
+    for a, b in zip(turned["specular"] + [turned["irradiance"]], shifted["specular"] + [shifted["irradiance"]]):
+        np.testing.assert_allclose(a, b, rtol=2e-6)
+    np.testing.assert_allclose(turned["sh9"][:, 0], shifted["sh9"][:, 0], rtol=1e-5)
+    assert turned["manifest"]["options"]["rotation_degrees"] == 45.0
+    assert "rotation_degrees" not in shifted["manifest"]["options"]  # an unturned bake's manifest is as before
+    with pytest.raises(ValueError, match=r"rotation must be in -360\.\.360"):
+        ib.check_options(rotation=400.0)

@@ -424,7 +424,8 @@ struct SourceBake {
     std::vector<float> clean_rows;
     std::vector<const float*> row_table;
     bool summary_refreshed = false;  // the summary's bad rows were summarized again once cleaned
-    ImageView source;                // the cleaned source
+    ImageView source;                // the cleaned source (turned by orient())
+    Image oriented;                  // orient(): the source turned about the up axis
     // sh9(): the grid the integrals run on.
     Image resampled;
     ImageView integrand;
@@ -509,6 +510,23 @@ void sanitize(SourceBake& b) {
     if (b.summary_refreshed) refresh_summary_rows(b.summary, b.view, scan.bad_rows);
     b.source = b.view;
     b.clock.done("sanitize");
+}
+
+// The world turned about its up axis (option `rotation`), as Blender's
+// Mapping node (Point, Z) turns an Environment Texture: direction d of the
+// result shows L(Rz d) of the cleaned source (ibl/source.h's remap_latlong).
+// The turned image is the bake's own from here on (an owned source is freed
+// at once), and the scan's summary no longer describes it.
+void orient(SourceBake& b) {
+    if (b.o.rotation == 0.0) return;
+    const double a = b.o.rotation * kPi / 180.0, c = std::cos(a), s = std::sin(a);
+    b.oriented = remap_latlong(b.source, {c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0}, {0.0, 0.0, 0.0});
+    if (b.owned) FloatBuffer().swap(b.owned->pixels);
+    b.owned = &b.oriented;
+    b.view = b.source = b.oriented;
+    b.scanned = ImageView();
+    b.summary_refreshed = false;
+    b.clock.done("orient");
 }
 
 bool same_pixels(const ImageView& a, const ImageView& b) { return a.data == b.data && a.rows == b.rows; }
@@ -767,6 +785,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         SourceBake b(view, owned, o, progress, lut_cache, sink);
         scan(b);
         sanitize(b);
+        orient(b);
         sh9(b);
         plan_levels(b);
         mirror_levels(b);

@@ -189,6 +189,11 @@ std::vector<Row> make_rows() {
                           &BakeOptions::hot_threshold));
     t.push_back(int_row(ranged(spec("max_hot", "Max Hot", "at most this many exactly integrated texels", cli), 0, 1 << 20),
                         &BakeOptions::max_hot));
+    t.push_back(float_row(ranged(spec("rotation", "Rotation",
+                                      "turn the world about its up axis, in degrees, as Blender's Mapping node "
+                                      "(Point, Z) turns an Environment Texture", cli),
+                                 -360, 360),
+                          &BakeOptions::rotation));
     t.push_back(bool_row(spec("strict", "Strict", "fail on NaN, Inf or negative source values instead of zeroing them", cli),
                          &BakeOptions::strict));
     t.push_back(int_row(ranged(spec("threads", "Threads", "worker threads", cli), 0, 1024, " (0: all cores)"),

@@ -240,6 +240,7 @@ json make_manifest(const BakeResult& r, const BakePlan& plan, const SourceInfo& 
                     {"max_hot", bo.max_hot},
                     {"first_level", bo.first_level},
                     {"last_level", bo.resolved_last_level()}};
+    if (bo.rotation != 0.0) m["options"]["rotation_degrees"] = bo.rotation;
     for (const auto& [key, value] : wo.manifest_extra.items()) {
         if (m.contains(key)) throw std::invalid_argument("manifest_extra may not replace the manifest's '" + key + "'");
         m[key] = value;

@@ -67,6 +67,10 @@ struct BakeOptions {
     double hot_threshold = 16.0;      // hot texels: above this times the mean ...
     int max_hot = 1024;               // ... and at most this many
     bool strict = false;              // bad texels are an error instead of 0
+    // The world turned about its up axis (Blender's Z), in degrees, as
+    // Blender's Mapping node (Point, rotation Z) turns an Environment Texture:
+    // direction d shows the source's L(Rz(rotation) d).
+    double rotation = 0.0;
     int threads = 0;                  // 0: all cores
     ExtraOutputs extra;               // for engine presets
     // The caller's warnings (an odd file, an ignored option, ...): the
