@@ -131,6 +131,25 @@ std::vector<Preset> make_table() {
     }
     {
         Preset p;
+        p.name = "cesium";
+        p.description = "CesiumJS ImageBasedLighting (specularEnvironmentMaps, sphericalHarmonicCoefficients)";
+        p.container = Container::Ktx2;
+        p.format = PF::Rgba16f;
+        p.formats = {PF::Rgba16f, PF::Rgba32f};
+        p.mirror = Mirror::None;
+        p.curve = RoughnessCurve::Linear;
+        p.smallest = 1;
+        p.diffuse = DiffuseForm::ShManifest;
+        p.sh = ShForm::Filament;
+        p.lod_formula = "lod = r x maximum LOD, the maximum LOD = levels - 1 (ImageBasedLightingStageFS.glsl)";
+        p.diffuse_note = "sphericalHarmonicCoefficients: the manifest's `sh` (Filament's pre-scaled form, which "
+                         "czm_sphericalHarmonics evaluates as L00 + L1-1 y + L10 z + L11 x + ...)";
+        p.notes = "from CesiumJS's shaders; not rendered in Cesium here: the axes of its IBL reference frame "
+                  "(iblReferenceFrameMatrix) are unverified";
+        t.push_back(p);
+    }
+    {
+        Preset p;
         p.name = "source";
         p.description = "Unreal, Godot 4, O3DE (they refilter the source themselves)";
         p.container = Container::Source;
@@ -219,6 +238,7 @@ const char* diffuse_name(DiffuseForm d) {
     switch (d) {
         case DiffuseForm::Cube: return "cube";
         case DiffuseForm::TopLevel: return "top-level";
+        case DiffuseForm::ShManifest: return "sh-manifest";
         case DiffuseForm::ShKtx1: return "sh-ktx1";
         case DiffuseForm::Polynomial: return "polynomial";
         case DiffuseForm::Engine: return "engine";

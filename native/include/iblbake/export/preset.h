@@ -18,6 +18,7 @@ enum class DiffuseForm {
     TopLevel,     // the specular chain's top level (r = 1: Pre = Irr)
     ShKtx1,       // Filament's pre-scaled SH in the KTX1 `sh` key
     Polynomial,   // Babylon's spherical polynomial in the .env header
+    ShManifest,   // the manifest's SH, handed to the engine's API (Cesium)
     Engine,       // the engine computes its own
 };
 // SH the manifest gives for the preset.
