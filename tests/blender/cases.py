@@ -383,6 +383,69 @@ def case_save_blend(args):
     return {"saved": True}
 
 
+def _world(name="hostile"):
+    world = bpy.data.worlds.new(name)
+    if not ALWAYS_NODES:
+        world.use_nodes = True
+    bpy.context.scene.world = world
+    return world, world.node_tree
+
+
+def case_save_hostile_world(args):
+    """Saves WORK/scene.blend whose world looks right but is not (issue 24):
+    kind = udim, udim_1001, sequence_gap, mix_missing, srgb_float, driver_black, emoji_name."""
+    kind = args["kind"]
+    empty_scene()
+    orange = np.tile(np.float32([0.9, 0.3, 0.05]), (32, 64, 1))
+    if kind == "emoji_name":
+        image_world(save_exr(os.path.join(WORK, "orange.exr"), orange)).name = args.get("name", "\U0001F600\U0001F30D")
+    elif kind in ("udim", "udim_1001"):
+        world, nt = _world()
+        env = nt.nodes.new("ShaderNodeTexEnvironment")
+        if kind == "udim_1001":
+            save_exr(os.path.join(WORK, "tile.1001.exr"), orange)
+        img = bpy.data.images.new("tiles", 64, 32, float_buffer=True, tiled=True)
+        img.source = "TILED"
+        img.filepath = os.path.join(WORK, "tile.<UDIM>.exr")
+        env.image = img
+        nt.links.new(env.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    elif kind == "sequence_gap":
+        world, nt = _world()
+        save_exr(os.path.join(WORK, "seq.0001.exr"), orange)
+        env = nt.nodes.new("ShaderNodeTexEnvironment")
+        env.image = bpy.data.images.load(os.path.join(WORK, "seq.0001.exr"))
+        env.image.source = "SEQUENCE"
+        env.image_user.frame_duration = 1
+        env.image_user.frame_start = 1
+        env.image_user.use_cyclic = False
+        env.image_user.frame_offset = 4  # frame 1 shows seq.0005.exr, which does not exist
+        nt.links.new(env.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    elif kind == "mix_missing":
+        world, nt = _world()
+        save_exr(os.path.join(WORK, "gone.exr"), orange)
+        env = nt.nodes.new("ShaderNodeTexEnvironment")
+        env.image = bpy.data.images.load(os.path.join(WORK, "gone.exr"))
+        mix = nt.nodes.new("ShaderNodeMixRGB")
+        mix.inputs["Fac"].default_value = 0.5
+        mix.inputs["Color2"].default_value = (0.1, 0.1, 0.1, 1)
+        nt.links.new(env.outputs["Color"], mix.inputs["Color1"])
+        nt.links.new(mix.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    elif kind == "srgb_float":
+        world = image_world(save_exr(os.path.join(WORK, "bright.exr"), np.full((32, 64, 3), 4.0, np.float32)))
+        world.node_tree.nodes["Environment Texture"].image.colorspace_settings.name = "sRGB"
+    elif kind == "driver_black":
+        world, nt = _world()
+        bg = nt.nodes["Background"]
+        bg.inputs["Strength"].default_value = 0.0
+        fc = bg.inputs["Strength"].driver_add("default_value")
+        fc.driver.type = "SCRIPTED"
+        fc.driver.expression = "__import__('math').sqrt(4.0) / 2"  # a Python expression, not a simple one
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(WORK, "scene.blend"))
+    if kind == "mix_missing":
+        os.remove(os.path.join(WORK, "gone.exr"))
+    return {"saved": True}
+
+
 CASES = {name[5:]: fn for name, fn in list(globals().items()) if name.startswith("case_")}
 
 if __name__ == "__main__":
