@@ -64,6 +64,25 @@ extern "C" void request_stop(int sig) {
         ::_exit(128 + sig);
     }
 }
+
+// One line naming every exported file whose texels were clamped to its
+// pixel format's range (the manifest counts them per file); none when none were.
+std::vector<std::string> clamp_notes(const nlohmann::json& m) {
+    std::string files;
+    uint64_t total = 0;
+    if (m.contains("presets"))
+        for (const auto& [name, entry] : m["presets"].items())
+            for (const auto& w : entry.value("written", nlohmann::json::array()))
+                if (w.value("clamped_texels", uint64_t(0)) > 0) {
+                    const uint64_t n = w["clamped_texels"].get<uint64_t>();
+                    total += n;
+                    files += (files.empty() ? "" : ", ") + name + "/" + w["file"].get<std::string>() + " (" +
+                             std::to_string(n) + ")";
+                }
+    if (!total) return {};
+    return {std::to_string(total) + " texels brighter than their pixel format holds were clamped to its largest "
+            "value: " + files + " (the manifest's clamped_texels)"};
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -110,8 +129,8 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     bake->add_option("--preset", presets,
                      "engine preset(s), each into OUTDIR/NAME (repeat or comma-separate; `iblbake presets` lists them): "
-                     "three, khronos, bevy, filament, babylon, unity, source; NAME:FORMAT picks a pixel format")
-        ->delimiter(',');
+                     "three, khronos, bevy, filament, babylon, unity, source; NAME:FORMAT picks a pixel format");
+    // No CLI11 delimiter: parse_presets splits the commas itself and refuses empty names ("three,,khronos").
     bake->add_option("--layout", layout, "layout of the cubes in OUTDIR: hcross, vcross, faces, latlong")
         ->capture_default_str();
     bake->add_flag("--float32", wo.float32, "write crosses as full float instead of half");
@@ -202,6 +221,7 @@ int main(int argc, char** argv) {
         const nlohmann::json m = bake_file(source, outdir, bo, wo, progress, no_cache ? nullptr : &cache);
         g_reading = false;
         for (const auto& w : m["warnings"]) std::cerr << "iblbake: warning: " << w.get<std::string>() << "\n";
+        for (const std::string& note : clamp_notes(m)) std::cerr << "iblbake: warning: " << note << "\n";
         if (!quiet) {
             const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
             const std::string kernel = m["specular_kernel"].is_string()

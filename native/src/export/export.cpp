@@ -101,11 +101,11 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
     if (p.container == Container::Source) {
         if (!r.source) throw std::logic_error("the bake kept no source for the source preset");
         io::write_exr((dir / "source.exr").string(), *r.source, io::ExrPixel::Float);
-        io::write_hdr((dir / "source.hdr").string(), *r.source);
+        const uint64_t clamped = io::write_hdr((dir / "source.hdr").string(), *r.source);
         files["source"] = "source.exr";
         files["source_hdr"] = "source.hdr";
         written.push_back({{"file", "source.exr"}, {"encoding", "float"}});
-        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}});
+        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}, {"clamped_texels", clamped}});
         m["specular"] = json::array();
         m["lod_formula"] = nullptr;
         m["source"] = {{"width", r.source->width}, {"height", r.source->height},

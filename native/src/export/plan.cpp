@@ -13,6 +13,7 @@ std::vector<PresetPlan> plan_presets(const BakeOptions& bo, const std::vector<Pr
         if (p.container == Container::Env && (bo.face_size & (bo.face_size - 1)))
             throw std::invalid_argument("preset '" + p.name + "' needs a power-of-two face size (Babylon's .env), not " +
                                         std::to_string(bo.face_size));
+        check_preset_face_size(p, bo.face_size);
         if (p.container != Container::Source) {
             const int levels = preset_level_count(p, bo.face_size);
             for (int m = 0; m < levels; ++m)
