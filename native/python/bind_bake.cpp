@@ -131,8 +131,11 @@ Parsed parse_options(const pybind11::dict& kw) {
             } catch (const pybind11::error_already_set& e) {
                 if (e.matches(PyExc_ValueError))
                     value_error("manifest_extra: every number must be a finite number (JSON has no NaN or infinity)");
+                // The exception's own words, one line: e.what() carries a traceback.
+                std::string why = pybind11::str(e.value()).cast<std::string>();
+                std::replace(why.begin(), why.end(), '\n', ' ');
                 value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " +
-                            std::string(e.what()));
+                            why);
             }
             wo.manifest_extra = nlohmann::json::parse(text, nullptr, false);
             if (wo.manifest_extra.is_discarded()) value_error("manifest_extra is not valid JSON");

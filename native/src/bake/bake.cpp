@@ -173,6 +173,13 @@ struct SinkGuard {
 };
 
 // The LUT, read from the cache when there (it depends on its settings alone).
+// A world whose every texel is 0 lights nothing: baked, but never silently
+// (a driver Blender did not run, a Strength of 0, an image of zeros).
+void warn_if_black(BakeResult& r) {
+    if (r.mean_radiance[0] == 0 && r.mean_radiance[1] == 0 && r.mean_radiance[2] == 0)
+        r.warnings.push_back("the world is black (every texel is 0): the bake lights nothing");
+}
+
 void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
     if (lut_cache) r.lut = lut_cache->load(key);
@@ -692,6 +699,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         if (saturated)
             r.warnings.push_back(std::to_string(saturated) +
                                  " output values exceeded the float range and were saturated at 3.4e38");
+        warn_if_black(r);
         check_outputs(r, !owned_source);
         if (sink) sink->wait();
         report("done", 1.0);
@@ -775,6 +783,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
         extra_lut_stage(r, o, lut_cache);
+        warn_if_black(r);
         check_outputs(r, false);
         if (sink) sink->wait();
         report("done", 1.0);
