@@ -204,6 +204,7 @@ def batch_folders(items, out):
 
 def main(argv):
     args = parse_args(argv)
+    args.out = os.path.expanduser(args.out)  # a quoted '~/x' is the user's folder, as the shell would have made it
     load_addon()
     check_native_options(args)
     failures = []

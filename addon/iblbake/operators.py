@@ -9,7 +9,6 @@ worker thread (the native code releases the GIL) - and the main thread only
 polls them on a timer, updating the panel's progress bar. Esc or the Cancel
 button stops any stage; the earlier bake stays as it was."""
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -19,7 +18,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from . import preferences, scene_needs, state, world_reader
-from .core import describe, native, pipeline
+from .core import describe, names, native, pipeline
 from .core.job import BakeJob
 from .core.needs import needs_from_lobes
 from .core.settings import BakeSettings
@@ -34,17 +33,13 @@ STAGE_WORDS = {"reading source": "Scanning the image", "specular": "Specular lev
                "hashing": "Checking for changes"}
 
 
-def _safe(name: str) -> str:
-    """A name as one path component: never empty, never "." or ".."."""
-    s = re.sub(r"[^\w.-]+", "_", name).strip("_")
-    return "untitled" if s.strip(".") == "" else s
-
-
 def resolve_output_dir(scene, template: str) -> str:
     blend = bpy.data.filepath
-    text = template.replace("{blend}", _safe(os.path.splitext(os.path.basename(blend))[0] if blend else "untitled"))
-    text = text.replace("{scene}", _safe(scene.name))
-    text = text.replace("{world}", _safe(scene.world.name if scene.world else "no_world"))
+    try:
+        text = names.fill_template(template, os.path.splitext(os.path.basename(blend))[0] if blend else "untitled",
+                                   scene.name, scene.world.name if scene.world else "no_world")
+    except names.TemplateError as e:
+        raise pipeline.BakeError(str(e))
     if text.startswith("//") and not blend:
         raise pipeline.BakeError("the output folder %r is relative to the .blend file, which is not saved yet: "
                                  "save the file, or choose an absolute folder" % template)

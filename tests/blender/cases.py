@@ -398,7 +398,7 @@ def case_save_hostile_world(args):
     empty_scene()
     orange = np.tile(np.float32([0.9, 0.3, 0.05]), (32, 64, 1))
     if kind == "emoji_name":
-        image_world(save_exr(os.path.join(WORK, "orange.exr"), orange)).name = args.get("name", "\U0001F600\U0001F30D")
+        image_world(save_exr(os.path.join(WORK, "orange.exr"), orange)).name = args.get("world_name", "\U0001F600\U0001F30D")
     elif kind in ("udim", "udim_1001"):
         world, nt = _world()
         env = nt.nodes.new("ShaderNodeTexEnvironment")

@@ -114,7 +114,7 @@ def test_e8_a_float_image_in_srgb_is_rendered_not_read_clamped(case, tmp_path):
     p = run_blender([blend, "--python", BAKE_WORLD, "--", "--out", str(out), *SMALL])
     assert p.returncode == 0, p.stderr[-3000:]
     m = manifest(out)
-    assert m["blender"]["path"] == "render", m["blender"]
+    assert m["blender"]["path"] == "cycles_render", m["blender"]["path"]
     assert min(m["mean_radiance"]) > 1.0, m["mean_radiance"]  # Blender's clamped buffer gave at most 1
 
 
@@ -143,7 +143,7 @@ def test_e15_a_quoted_tilde_out_is_the_home_folder(tmp_path):
 def test_e15_worlds_whose_names_leave_nothing_bake_into_distinct_folders(case, tmp_path):
     folders = set()
     for name in ("\U0001F600\U0001F30D", "..", "."):
-        blend, _ = hostile_blend(case, "emoji_name", name=name)
+        blend, _ = hostile_blend(case, "emoji_name", world_name=name)
         p = run_blender([blend, "--python", BAKE_WORLD, "--", "--out", str(tmp_path / "{world}"), *SMALL])
         assert p.returncode == 0, p.stderr[-3000:]
     folders = {n for n in os.listdir(tmp_path) if os.path.isfile(tmp_path / n / "manifest.json")}
