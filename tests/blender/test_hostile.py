@@ -1,5 +1,5 @@
 """Issue 15 in headless Blender: bake_world.py with hostile input (D2, D3,
-D13, D14, D17), and issue 24 (E2, E8, E12, E15)."""
+D13, D14, D17), and issue 24 (E2, E8, E12, E13, E15)."""
 import json
 import os
 
@@ -106,6 +106,16 @@ def test_e2_the_magenta_share_of_a_render_is_measured(tmp_path):
             % os.path.join(ROOT, "addon"))
     p = run_blender(["--python-expr", code])
     assert "0.625" in p.stdout, p.stdout[-2000:] + p.stderr[-2000:]
+
+
+def test_e13_a_mapping_that_is_not_a_number_names_its_node(case, tmp_path):
+    blend, _ = hostile_blend(case, "mapping_nan")
+    out = tmp_path / "out"
+    p = run_blender([blend, "--python", BAKE_WORLD, "--", "--out", str(out), *SMALL])
+    assert p.returncode == 1, p.stderr[-3000:]
+    lines = error_lines(p)
+    assert len(lines) == 1 and "Sky Turn" in lines[0] and "Rotation" in lines[0], p.stderr
+    assert not out.exists()
 
 
 def test_e8_a_float_image_in_srgb_is_rendered_not_read_clamped(case, tmp_path):
