@@ -125,6 +125,21 @@ def make_multipart_depth_first(path):
                     "-d", "float", "--siappend", "-o", path], check=True, capture_output=True)
 
 
+def exr_subsampled_bytes():
+    """An EXR whose channels are sampled every 2 x 2 pixels (the chlist's sampling fields)."""
+    d = exr_bytes()
+    i = d.index(b"channels\0chlist\0") + len(b"channels\0chlist\0") + 4
+    for c in (b"B", b"G", b"R"):
+        j = d.index(c + b"\0", i) + 2
+        d = d[:j + 8] + struct.pack("<ii", 2, 2) + d[j + 16:]
+    return d
+
+
+def make_deep_exr(path):
+    subprocess.run(["oiiotool", "--create", "%dx%d" % (BASE_W, BASE_H), "4", "--chnames", "R,G,B,Z", "-d", "float",
+                    "--deepen", "-o", path], check=True, capture_output=True)
+
+
 def make_gradient_exr(path, width, height):
     with open(path, "wb") as f:
         f.write(exr_bytes(width, height, value=0.5))
@@ -493,6 +508,8 @@ def issue24_cases() -> List[Case]:
                     expect="ok", mean=[0.45, 0.15, 0.025]))
     out.append(Case("looks_xyze.hdr", "looks_right",
                     _write(hdr_bytes(BASE_W, BASE_H).replace(b"32-bit_rle_rgbe", b"32-bit_rle_xyze")), expect="error"))
+    out.append(Case("looks_subsampled.exr", "looks_right", _write(exr_subsampled_bytes()), expect="error"))
+    out.append(Case("looks_deep.exr", "looks_right", make_deep_exr, expect="error"))
     out.append(Case("looks_dds_export.dds", "looks_right", _write(b"DDS " + struct.pack("<I", 124) + bytes(200)),
                     expect="error"))
     out.append(Case("looks_huge_for_rgbe.exr", "looks_right", _write(exr_bytes(value=3.0e38)), expect="ok",

@@ -209,7 +209,7 @@ def test_e5_a_fifo_named_like_a_cache_entry_does_not_hang(tmp_path, ext):
 @pytest.mark.parametrize("preset", ["three", "filament"])
 def test_e6_presets_that_would_hold_the_mirror_level_alone_are_refused(tmp_path, preset):
     src = write(tmp_path / "s.exr", corpus.exr_bytes())
-    one_line_error(bake(src, tmp_path / "out", "--preset", preset), preset, "32")
+    one_line_error(bake(src, tmp_path / "out", "--preset", preset), preset, "of 32 or more")
     r = bake(src, tmp_path / "ok", "--preset", preset, "--face-size", "32")
     assert r.returncode == 0, r.stderr
     levels = manifest(tmp_path / "ok")["presets"][preset]["specular"]
@@ -333,6 +333,15 @@ def test_e13_manifest_extra_errors_are_one_line():
 def test_e13_unreadable_kinds_are_named(tmp_path, name, data, words):
     src = write(tmp_path / name, data)
     one_line_error(bake(src, tmp_path / "out"), str(src), words)
+
+
+@pytest.mark.parametrize("make, words", [(corpus.make_deep_exr, "a deep OpenEXR file"),
+                                         (lambda p: write(p, corpus.exr_subsampled_bytes()), "is subsampled, which")],
+                         ids=["deep", "subsampled"])
+def test_e13_deep_and_subsampled_exr_are_named(tmp_path, make, words):
+    src = str(tmp_path / "src.exr")
+    make(src)
+    one_line_error(bake(src, tmp_path / "out"), src, words)
 
 
 def test_e13_a_full_disk_names_the_output_folder_and_the_reason(tmp_path):
