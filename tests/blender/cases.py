@@ -440,7 +440,8 @@ def case_save_hostile_world(args):
         nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
         nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
     elif kind == "srgb_float":
-        world = image_world(save_exr(os.path.join(WORK, "bright.exr"), np.full((32, 64, 3), 4.0, np.float32)))
+        value = float(args.get("value", 4.0))
+        world = image_world(save_exr(os.path.join(WORK, "bright.exr"), np.full((32, 64, 3), value, np.float32)))
         world.node_tree.nodes["Environment Texture"].image.colorspace_settings.name = "sRGB"
     elif kind == "driver_black":
         world, nt = _world()

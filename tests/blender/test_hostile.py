@@ -119,13 +119,14 @@ def test_e13_a_mapping_that_is_not_a_number_names_its_node(case, tmp_path):
 
 
 def test_e8_a_float_image_in_srgb_is_rendered_not_read_clamped(case, tmp_path):
-    blend, _ = hostile_blend(case, "srgb_float")
+    blend, _ = hostile_blend(case, "srgb_float", value=1000)
     out = tmp_path / "out"
     p = run_blender([blend, "--python", BAKE_WORLD, "--", "--out", str(out), *SMALL])
     assert p.returncode == 0, p.stderr[-3000:]
     m = manifest(out)
     assert m["blender"]["path"] == "cycles_render", m["blender"]["path"]
-    assert min(m["mean_radiance"]) > 1.0, m["mean_radiance"]  # Blender's clamped buffer gave at most 1
+    # Cycles decodes 1000 as sRGB to ((1000 + 0.055) / 1.055)^2.4 = 1.39e7; Blender's buffer held 40.5.
+    assert min(m["mean_radiance"]) > 1e7, m["mean_radiance"]
 
 
 def test_e12_a_black_world_from_a_driver_that_did_not_run_warns(case, tmp_path):
