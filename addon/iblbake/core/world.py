@@ -115,8 +115,8 @@ class WorldSource:
     def check_colorspace(self):
         if not self.is_float and self.colorspace != "sRGB" and self.colorspace not in LINEAR_COLORSPACES:
             raise ValueError("the Color Space %r of an 8-bit image is not read directly" % self.colorspace)
-        # Blender's buffer of a float image in a non-linear space is clamped
-        # to 0..1 (an sRGB EXR read so was 92 % darker than Cycles shows it).
+        # Blender's buffer of a float image in a non-linear space is not what
+        # Cycles shows (1000 in sRGB: 40.5 in the buffer, 1.39e7 in Cycles).
         if self.is_float and self.colorspace not in LINEAR_COLORSPACES:
             raise ValueError("the Color Space %r of a float image is not read directly" % self.colorspace)
 
