@@ -57,8 +57,10 @@ nlohmann::json manifest_extra_json(const pybind11::handle& v) {
     } catch (const pybind11::error_already_set& e) {
         if (e.matches(PyExc_ValueError))
             value_error("manifest_extra: every number must be a finite number (JSON has no NaN or infinity)");
-        value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " +
-                    std::string(e.what()));
+        // The exception's own words, one line: e.what() carries a traceback.
+        std::string why = pybind11::str(e.value()).cast<std::string>();
+        std::replace(why.begin(), why.end(), '\n', ' ');
+        value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " + why);
     }
     nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
     if (j.is_discarded()) value_error("manifest_extra is not valid JSON");

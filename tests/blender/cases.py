@@ -383,6 +383,79 @@ def case_save_blend(args):
     return {"saved": True}
 
 
+def _world(name="hostile"):
+    world = bpy.data.worlds.new(name)
+    if not ALWAYS_NODES:
+        world.use_nodes = True
+    bpy.context.scene.world = world
+    return world, world.node_tree
+
+
+def _env_world(image_file=None, to_background=True):
+    """A world with an Environment Texture (of WORK/image_file, an orange field, when given), its Color
+    linked to the Background's unless told not to: (node tree, node)."""
+    _, nt = _world()
+    env = nt.nodes.new("ShaderNodeTexEnvironment")
+    if image_file:
+        orange = np.tile(np.float32([0.9, 0.3, 0.05]), (32, 64, 1))
+        env.image = bpy.data.images.load(save_exr(os.path.join(WORK, image_file), orange))
+    if to_background:
+        nt.links.new(env.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    return nt, env
+
+
+def case_save_hostile_world(args):
+    """Saves WORK/scene.blend whose world looks right but is not (issue 24):
+    kind = udim, udim_1001, sequence_gap, mix_missing, mapping_nan, srgb_float, driver_black, emoji_name."""
+    kind = args["kind"]
+    empty_scene()
+    if kind == "emoji_name":
+        _env_world("orange.exr")
+        bpy.context.scene.world.name = args.get("world_name", "\U0001F600\U0001F30D")
+    elif kind in ("udim", "udim_1001"):
+        nt, env = _env_world("tile.1001.exr" if kind == "udim_1001" else None)
+        img = bpy.data.images.new("tiles", 64, 32, float_buffer=True, tiled=True)
+        img.source = "TILED"
+        img.filepath = os.path.join(WORK, "tile.<UDIM>.exr")
+        env.image = img
+    elif kind == "sequence_gap":
+        nt, env = _env_world("seq.0001.exr")
+        env.image.source = "SEQUENCE"
+        env.image_user.frame_duration = 1
+        env.image_user.frame_start = 1
+        env.image_user.use_cyclic = False
+        env.image_user.frame_offset = 4  # frame 1 shows seq.0005.exr, which does not exist
+    elif kind == "mix_missing":
+        nt, env = _env_world("gone.exr", to_background=False)
+        mix = nt.nodes.new("ShaderNodeMixRGB")
+        mix.inputs["Fac"].default_value = 0.5
+        mix.inputs["Color2"].default_value = (0.1, 0.1, 0.1, 1)
+        nt.links.new(env.outputs["Color"], mix.inputs["Color1"])
+        nt.links.new(mix.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    elif kind == "mapping_nan":
+        nt, env = _env_world("orange.exr")
+        mapping, coords = nt.nodes.new("ShaderNodeMapping"), nt.nodes.new("ShaderNodeTexCoord")
+        mapping.name = "Sky Turn"
+        mapping.inputs["Rotation"].default_value = (0.0, 0.0, float("nan"))
+        nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+        nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    elif kind == "srgb_float":
+        value = float(args.get("value", 4.0))
+        world = image_world(save_exr(os.path.join(WORK, "bright.exr"), np.full((32, 64, 3), value, np.float32)))
+        world.node_tree.nodes["Environment Texture"].image.colorspace_settings.name = "sRGB"
+    elif kind == "driver_black":
+        world, nt = _world()
+        bg = nt.nodes["Background"]
+        bg.inputs["Strength"].default_value = 0.0
+        fc = bg.inputs["Strength"].driver_add("default_value")
+        fc.driver.type = "SCRIPTED"
+        fc.driver.expression = "__import__('math').sqrt(4.0) / 2"  # a Python expression, not a simple one
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(WORK, "scene.blend"))
+    if kind == "mix_missing":
+        os.remove(os.path.join(WORK, "gone.exr"))
+    return {"saved": True}
+
+
 CASES = {name[5:]: fn for name, fn in list(globals().items()) if name.startswith("case_")}
 
 if __name__ == "__main__":

@@ -174,6 +174,13 @@ struct SinkGuard {
 };
 
 // The LUT, read from the cache when there (it depends on its settings alone).
+// A world whose every texel is 0 lights nothing: baked, but never silently
+// (a driver Blender did not run, a Strength of 0, an image of zeros).
+void warn_if_black(BakeResult& r) {
+    if (r.mean_radiance[0] == 0 && r.mean_radiance[1] == 0 && r.mean_radiance[2] == 0)
+        r.warnings.push_back("the world is black (every texel is 0): the bake lights nothing");
+}
+
 void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
     if (lut_cache) r.lut = lut_cache->load(key);
@@ -769,6 +776,7 @@ void finish_and_check(SourceBake& b) {
     if (b.saturated)
         r.warnings.push_back(std::to_string(b.saturated) +
                              " output values exceeded the float range and were saturated at 3.4e38");
+    warn_if_black(r);
     check_outputs(r, !b.owned_source);
     if (b.sink) b.sink->wait();
     b.report("done", 1.0);
@@ -876,6 +884,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
         extra_lut_stage(r, o, lut_cache);
+        warn_if_black(r);
         check_outputs(r, false);
         if (sink) sink->wait();
         report("done", 1.0);

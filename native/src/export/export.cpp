@@ -91,11 +91,11 @@ json run_preset(const ExportInput& in, const fs::path& root, const std::string& 
     if (p.container == Container::Source) {
         if (!in.source) throw std::logic_error("no source given for the source preset");
         io::write_exr((dir / "source.exr").string(), *in.source, io::ExrPixel::Float);
-        io::write_hdr((dir / "source.hdr").string(), *in.source);
+        const uint64_t clamped = io::write_hdr((dir / "source.hdr").string(), *in.source);
         files["source"] = "source.exr";
         files["source_hdr"] = "source.hdr";
         written.push_back({{"file", "source.exr"}, {"encoding", "float"}});
-        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}});
+        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}, {"clamped_texels", clamped}});
         m["specular"] = json::array();
         m["lod_formula"] = nullptr;
         m["source"] = {{"width", in.source->width}, {"height", in.source->height},

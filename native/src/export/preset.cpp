@@ -191,12 +191,22 @@ std::string trim(const std::string& s) {
     return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
 }
 
+std::vector<std::string> preset_names();
+
 }  // namespace
 
 const std::vector<Preset>& preset_table() {
     static const std::vector<Preset> table = make_table();
     return table;
 }
+
+namespace {
+std::vector<std::string> preset_names() {
+    std::vector<std::string> n;
+    for (const Preset& p : preset_table()) n.push_back(p.name);
+    return n;
+}
+}  // namespace
 
 const char* container_name(Container c) {
     switch (c) {
@@ -261,11 +271,7 @@ Preset parse_preset(const std::string& spec_in) {
     std::vector<std::string> parts;
     std::stringstream ss(spec);
     for (std::string part; std::getline(ss, part, ':');) parts.push_back(trim(part));
-    if (parts.empty() || parts[0].empty()) bad("empty preset name (expected one of " + [] {
-                                               std::vector<std::string> n;
-                                               for (const Preset& p : preset_table()) n.push_back(p.name);
-                                               return names(n);
-                                           }() + ")");
+    if (parts.empty() || parts[0].empty()) bad("empty preset name (expected one of " + names(preset_names()) + ")");
     const Preset* row = nullptr;
     std::vector<std::string> known;
     for (const Preset& p : preset_table()) {
@@ -274,11 +280,21 @@ Preset parse_preset(const std::string& spec_in) {
     }
     if (!row) bad("unknown preset '" + parts[0] + "' (expected one of " + names(known) + ")");
     Preset p = *row;
+    if (spec.back() == ':') parts.emplace_back();  // "khronos:": getline drops the empty last part
+    std::string format_given, zstd_given;           // each may be given once
+    auto once = [&](std::string& given, const std::string& m) {
+        if (!given.empty())
+            bad("preset '" + p.name + "': the modifiers '" + given + "' and '" + m +
+                "' contradict each other (give one)");
+        given = m;
+    };
     for (size_t i = 1; i < parts.size(); ++i) {
         const std::string& m = parts[i];
+        if (m.empty()) bad("preset '" + p.name + "': an empty modifier in '" + spec + "' (nothing after a ':')");
         if (m == "zstd" || m == "nozstd") {
             if (p.container != Container::Ktx2)
                 bad("preset '" + p.name + "': zstd supercompression applies to KTX2 only");
+            once(zstd_given, m);
             p.zstd = m == "zstd";
             continue;
         }
@@ -290,6 +306,7 @@ Preset parse_preset(const std::string& spec_in) {
             bad("preset '" + p.name + "': unknown modifier '" + m + "' (expected a format of its " +
                 container_name(p.container) + " file: " + names(allowed) +
                 (p.container == Container::Ktx2 ? "; or zstd, nozstd" : "") + ")");
+        once(format_given, m);
         p.format = f;
     }
     return p;
@@ -299,15 +316,25 @@ std::vector<Preset> parse_presets(const std::vector<std::string>& specs) {
     std::vector<Preset> out;
     std::set<std::string> seen;
     for (const std::string& s : specs) {
+        if (trim(s).empty()) bad("an empty preset (expected one of " + names(preset_names()) + ")");
         std::stringstream ss(s);
         for (std::string one; std::getline(ss, one, ',');) {
-            if (trim(one).empty()) continue;
+            if (trim(one).empty()) bad("an empty preset name in '" + s + "' (two commas, or one at an end)");
             Preset p = parse_preset(one);
             if (!seen.insert(p.name).second) bad("preset '" + p.name + "' is given twice");
             out.push_back(std::move(p));
         }
     }
     return out;
+}
+
+void check_preset_face_size(const Preset& p, int face_size) {
+    if (p.container == Container::Source || preset_level_count(p, face_size) >= 2) return;
+    int least = 2;
+    while (preset_level_count(p, least) < 2) least *= 2;
+    bad("preset '" + p.name + "' needs a face size of " + std::to_string(least) + " or more, not " +
+        std::to_string(face_size) + ": its chain stops at " + std::to_string(p.smallest) +
+        " px, so it would hold the mirror level alone (every material a mirror, no r = 1 level)");
 }
 
 int preset_level_count(const Preset& p, int n0) {

@@ -24,6 +24,7 @@ std::vector<PresetPlan> plan_presets(const BakeOptions& bo, const std::vector<Pr
         if (p.container == Container::Env && (bo.face_size & (bo.face_size - 1)))
             throw std::invalid_argument("preset '" + p.name + "' needs a power-of-two face size (Babylon's .env), not " +
                                         std::to_string(bo.face_size));
+        check_preset_face_size(p, bo.face_size);
         plans.push_back({p, bo.face_size, preset_chain(p, bo.face_size)});
     }
     return plans;

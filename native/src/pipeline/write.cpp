@@ -395,7 +395,7 @@ void BakeWriter::computed() { impl_->computed = true; }
 void BakeWriter::wait() {
     impl_->tasks.wait();
     std::lock_guard<std::mutex> lock(impl_->mutex);
-    if (impl_->error) std::rethrow_exception(impl_->error);
+    if (impl_->error) io::rethrow_outside_staging(impl_->error);  // the user's path in the message
 }
 
 json BakeWriter::finish(const BakeResult& r, const SourceInfo& src) {

@@ -63,6 +63,10 @@ const char* sh_form_name(ShForm s);
 
 // Levels of the preset's chain for base face n0: n0 down to `smallest` (at
 // least one level).
+// Throws std::invalid_argument when a face of `face_size` gives the preset's
+// chain fewer than two levels (three and filament stop at 16 px: at 16 they
+// would hold the mirror level alone).
+void check_preset_face_size(const Preset& p, int face_size);
 int preset_level_count(const Preset& p, int n0);
 // Perceptual roughness of level m of the preset's chain of `levels` levels
 // with base face n0 (the inverse of the engine's lod formula).
