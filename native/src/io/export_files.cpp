@@ -90,10 +90,18 @@ void write_hdr(const std::string& path, const Image& img) {
     if (std::fflush(f.get()) != 0) throw std::runtime_error("cannot write '" + path + "'");
 }
 
-void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+namespace {
+
+void write_file(const std::string& path, const void* data, size_t size) {
     File f = open_for_writing(path);
-    write_all(f.get(), bytes.data(), bytes.size(), path);
+    write_all(f.get(), data, size, path);
     if (std::fflush(f.get()) != 0) throw std::runtime_error("cannot write '" + path + "'");
 }
+
+}  // namespace
+
+void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) { write_file(path, bytes.data(), bytes.size()); }
+
+void write_text(const std::string& path, const std::string& text) { write_file(path, text.data(), text.size()); }
 
 }  // namespace iblbake::io
