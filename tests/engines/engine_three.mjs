@@ -199,7 +199,38 @@ await run('three', async (s) => {
   }
   s.expectFail('exact values on an export with linear r_m', { pass: linFails === 0, message: `${linFails} of ${T - 1} inner levels fail (${linMsgs.join(', ')})` });
 
-  // 6. Contact sheet: our bake (top) beside three's own PMREM (bottom).
+  // 6. The sun as a light (issue 27): a white diffuse sphere lit by the
+  //    sun-free three preset plus the light from sun.gltf renders as one lit
+  //    by the original environment alone, within 1 %.
+  const sunOrig = bakes.other('sun', 'sun.exr'), sunSplit = bakes.other('sun_split', 'sun.exr');
+  const matte = { roughness: 1, metalness: 0, specularIntensity: 0 };
+  await setKtx2(path.join(sunOrig.dir, sunOrig.manifest.presets.three.dir, sunOrig.manifest.presets.three.files.specular));
+  const withSun = await render(matte);
+  const splitPre = sunSplit.manifest.presets.three;
+  await setKtx2(path.join(sunSplit.dir, splitPre.dir, splitPre.files.specular));
+  const noSun = await render(matte);
+  const gltfUrl = s.dataUrl(path.join(sunSplit.dir, sunSplit.manifest.sun.files.gltf));
+  const loadedSun = await page.evaluate((u) => iblTest.setSun({ url: u }), gltfUrl);
+  const want = splitPre.sun.direction;
+  const dirErr = Math.acos(Math.min(1, loadedSun.direction.reduce((a, v, k) => a + v * want[k], 0))) * 180 / Math.PI;
+  s.expect('sun.gltf: GLTFLoader gives one DirectionalLight along the three preset\'s sun direction, colour x intensity = E', {
+    pass: loadedSun.lights === 1 && dirErr < 1e-3 &&
+          loadedSun.color.every((c, k) => Math.abs(c * loadedSun.intensity - sunSplit.manifest.sun.illuminance[k]) <= 1e-4 * sunSplit.manifest.sun.illuminance[k]),
+    message: `${loadedSun.lights} light(s), direction ${fmt(loadedSun.direction)} (off the preset's by ${fmt(dirErr)} deg), ` +
+             `colour ${fmt(loadedSun.color)} x intensity ${fmt(loadedSun.intensity)} vs E ${fmt(sunSplit.manifest.sun.illuminance)}`,
+  });
+  const lit = await render(matte);
+  const sameAsOriginal = (px) => valueCheck(px, S, (x, y) => rgbAt(withSun, S, x, y).slice(0, 3), { centreTol: 0.01, p99Tol: 0.01, minNV: 0.05 });
+  const sunCheck = sameAsOriginal(lit);
+  s.expect('sun: sun-free three preset + sun.gltf = the original environment alone (white diffuse sphere, 1 %)', sunCheck);
+  s.metric('sun', { share: sunSplit.manifest.sun.irradiance_share, ...sunCheck.metrics,
+                    without_light: sameAsOriginal(noSun).metrics });
+  s.expectFail('the sun-free preset alone (no light)', sameAsOriginal(noSun));
+  await page.evaluate((u) => iblTest.setSun({ url: u, mirrorX: true }), gltfUrl);
+  s.expectFail('the light x-mirrored like the preset\'s cube storage', sameAsOriginal(await render(matte)));
+  await page.evaluate(() => iblTest.setSun(null));
+
+  // 7. Contact sheet: our bake (top) beside three's own PMREM (bottom).
   const sheet = writeSheet(path.join(s.p.out, 'three_sheet.png'), [ours, theirs], S);
   console.log(`contact sheet: ${sheet} (top: iblbake three preset; bottom: three.js PMREMGenerator; r = ${roughness.map((r) => fmt(r, 3)).join(', ')})`);
 });
