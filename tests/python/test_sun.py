@@ -130,7 +130,7 @@ def test_no_sun_and_sun_off(tmp_path):
     sky = np.ascontiguousarray((0.6 + 0.4 * d[..., 2:3]) * np.array([1.0, 1.0, 1.1]), dtype=np.float32)
     a = ib.bake(sky, str(tmp_path / "split"), sun="split", **SMALL)
     b = ib.bake(sky, str(tmp_path / "off"), **SMALL)
-    assert not a["sun"]["found"] and a["sun"]["why"].startswith("no bright source")
+    assert not a["sun"]["found"] and a["sun"]["why"].startswith("no compact source")
     assert os.path.isfile(tmp_path / "split" / "sun.json") and not os.path.exists(tmp_path / "split" / "sun.gltf")
     np.testing.assert_array_equal(a["irradiance"], b["irradiance"])
     assert b["sun"] is None and "sun" not in b["manifest"] and "sun" not in b["manifest"]["options"]

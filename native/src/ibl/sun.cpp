@@ -264,32 +264,32 @@ SunSplit split_sun(ImageView img, const SunCriteria& c) {
     const Vec3d pd = g.dir(px, py);
     auto angle_deg = [&](int x, int y) { return std::acos(std::clamp(dot(g.dir(x, y), pd), -1.0, 1.0)) / kDeg; };
 
-    // 2. The core: texels of at least half the peak, connected to it.
+    // 2. The core: texels of at least half the peak, connected to it. It is
+    // followed out to a little beyond max_core from the peak (which may lie
+    // on its edge): reaching farther means it is wider than max_core.
     const double max_core = std::max(c.max_core_diameter_deg, 3.0 * g.texel_deg());
     {
-        const Window win = window_around(pd, max_core, w, h);
+        const double reach = max_core + 3.0 * g.texel_deg();
+        const Window win = window_around(pd, reach, w, h);
         const int si = win.local_col(px), sj = py - win.y0;
         bool edge = false;
         const std::vector<char> core = flood(
             win, si, sj,
-            [&](int i, int j) { return lum(img.at(win.gx(i), win.gy(j))) >= 0.5 * peak && angle_deg(win.gx(i), win.gy(j)) <= max_core; },
+            [&](int i, int j) {
+                return lum(img.at(win.gx(i), win.gy(j))) >= 0.5 * peak && angle_deg(win.gx(i), win.gy(j)) <= reach;
+            },
             &edge);
-        double om = 0.0;
+        double om = 0.0, extent = 0.0;
         for (int j = 0; j < win.rows(); ++j)
             for (int i = 0; i < win.cols; ++i)
-                if (core[win.at(i, j)]) om += g.omega[win.gy(j)];
-        sun.core_diameter_deg = cap_diameter_deg(om);
-        // Reaching the cap's edge: the core goes on beyond it.
-        bool beyond = false;
-        for (int j = 0; j < win.rows() && !beyond; ++j)
-            for (int i = 0; i < win.cols; ++i)
-                if (core[win.at(i, j)] && angle_deg(win.gx(i), win.gy(j)) > max_core - 1.5 * g.texel_deg()) {
-                    beyond = true;
-                    break;
+                if (core[win.at(i, j)]) {
+                    om += g.omega[win.gy(j)];
+                    extent = std::max(extent, angle_deg(win.gx(i), win.gy(j)));
                 }
-        if (sun.core_diameter_deg > max_core || beyond || edge) {
+        sun.core_diameter_deg = cap_diameter_deg(om);
+        if (sun.core_diameter_deg > max_core || extent > max_core + g.texel_deg() || edge) {
             sun.why = fmt("no compact source: the brightest spot is %.3g degrees across or more (at most %.3g)",
-                          std::max(sun.core_diameter_deg, max_core), max_core);
+                          std::max(sun.core_diameter_deg, extent), max_core);
             return out;
         }
     }
