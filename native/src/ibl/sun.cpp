@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <limits>
 #include <utility>
 
+#include "iblbake/ibl/source.h"
 #include "iblbake/math/latlong.h"
 #include "iblbake/util/parallel.h"
 
@@ -54,6 +56,16 @@ struct Window {
     int gx(int i) const { return ((x0 + i) % w + w) % w; }
     int gy(int j) const { return y0 + j; }
     size_t at(int i, int j) const { return size_t(j) * size_t(cols) + size_t(i); }
+    // The window index of (i + di, j + dj), around the seam when every
+    // column is in; SIZE_MAX outside the window.
+    size_t neighbour(int i, int j, int di, int dj) const {
+        int ni = i + di;
+        const int nj = j + dj;
+        if (nj < 0 || nj >= rows()) return SIZE_MAX;
+        if (full) ni = (ni + cols) % cols;
+        else if (ni < 0 || ni >= cols) return SIZE_MAX;
+        return at(ni, nj);
+    }
     // The local column of global column x, or -1.
     int local_col(int x) const {
         const int i = ((x - x0) % w + w) % w;
@@ -100,13 +112,10 @@ std::vector<char> flood(const Window& win, int si, int sj, const std::function<b
             edge = true;
         for (int dj = -1; dj <= 1; ++dj)
             for (int di = -1; di <= 1; ++di) {
-                int ni = i + di;
-                const int nj = j + dj;
-                if (nj < 0 || nj >= win.rows()) continue;
-                if (win.full) ni = (ni + win.cols) % win.cols;
-                else if (ni < 0 || ni >= win.cols) continue;
-                const size_t k = win.at(ni, nj);
-                if (in[k] || !keep(ni, nj)) continue;
+                const size_t k = win.neighbour(i, j, di, dj);
+                if (k == SIZE_MAX || in[k]) continue;
+                const int ni = int(k % size_t(win.cols)), nj = int(k / size_t(win.cols));
+                if (!keep(ni, nj)) continue;
                 in[k] = 1;
                 stack.emplace_back(ni, nj);
             }
@@ -184,16 +193,10 @@ void harmonic_fill(const Window& win, const std::vector<char>& mask, std::vector
                     const double ew = dphi / (std::cos(lat) * dlam);
                     const double n = std::max(0.0, std::cos(lat + 0.5 * dphi)) * dlam / dphi;
                     const double s = std::max(0.0, std::cos(lat - 0.5 * dphi)) * dlam / dphi;
-                    auto idx = [&](int ni, int nj) -> size_t {
-                        if (nj < 0 || nj >= win.rows()) return SIZE_MAX;
-                        if (win.full) ni = (ni + win.cols) % win.cols;
-                        else if (ni < 0 || ni >= win.cols) return SIZE_MAX;
-                        return win.at(ni, nj);
-                    };
-                    u.nb[0] = idx(i + 1, j), u.wt[0] = ew;
-                    u.nb[1] = idx(i - 1, j), u.wt[1] = ew;
-                    u.nb[2] = idx(i, j - 1), u.wt[2] = n;
-                    u.nb[3] = idx(i, j + 1), u.wt[3] = s;
+                    u.nb[0] = win.neighbour(i, j, 1, 0), u.wt[0] = ew;
+                    u.nb[1] = win.neighbour(i, j, -1, 0), u.wt[1] = ew;
+                    u.nb[2] = win.neighbour(i, j, 0, -1), u.wt[2] = n;
+                    u.nb[3] = win.neighbour(i, j, 0, 1), u.wt[3] = s;
                     for (int q = 0; q < 4; ++q)
                         if (u.nb[q] == SIZE_MAX) u.wt[q] = 0.0;
                     un.push_back(u);
@@ -353,12 +356,8 @@ SunSplit split_sun(ImageView img, const SunCriteria& c) {
             if (!body[win.at(i, j)]) continue;
             for (int dj = -1; dj <= 1; ++dj)
                 for (int di = -1; di <= 1; ++di) {
-                    int ni = i + di;
-                    const int nj = j + dj;
-                    if (nj < 0 || nj >= win.rows()) continue;
-                    if (win.full) ni = (ni + win.cols) % win.cols;
-                    else if (ni < 0 || ni >= win.cols) continue;
-                    mask[win.at(ni, nj)] = 1;
+                    const size_t k = win.neighbour(i, j, di, dj);
+                    if (k != SIZE_MAX) mask[k] = 1;
                 }
         }
 
@@ -491,21 +490,12 @@ void apply_sun_split(Image& img, const SunSplit& split) {
 ImageView sun_free_view(ImageView img, const SunSplit& split, std::vector<float>& store,
                         std::vector<const float*>& row_table) {
     if (split.texels.empty()) return img;
+    const ImageView v = view_with_copied_rows(img, split.rows, store, row_table);
     const size_t n = size_t(img.width) * 3;
-    store.assign(split.rows.size() * n, 0.0f);
-    row_table.resize(img.height);
-    for (int y = 0; y < img.height; ++y) row_table[y] = img.at(0, y);
-    for (size_t k = 0; k < split.rows.size(); ++k) {
-        const int y = split.rows[k];
-        std::copy_n(img.at(0, y), n, store.data() + k * n);
-        row_table[y] = store.data() + k * n;
-    }
     for (const SunTexel& t : split.texels) {
         const size_t k = size_t(std::lower_bound(split.rows.begin(), split.rows.end(), t.y) - split.rows.begin());
         std::copy_n(t.rgb, 3, store.data() + k * n + size_t(t.x) * 3);
     }
-    ImageView v = img;
-    v.rows = row_table.data();
     return v;
 }
 
