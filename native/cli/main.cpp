@@ -214,6 +214,13 @@ int main(int argc, char** argv) {
             std::printf("baked %s -> %s in %.3f s (reading included; %zu specular levels%s, bad pixels: %llu)\n",
                         io::printable(source).c_str(), io::printable(outdir).c_str(), wall, m["specular"].size(),
                         kernel.c_str(), (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
+            if (m.contains("sun") && m["sun"].is_object()) {
+                const auto& sun = m["sun"];
+                if (sun["found"].get<bool>())
+                    std::printf("  sun       %s (sun.json, sun.gltf)\n", sun["why"].get<std::string>().c_str());
+                else
+                    std::printf("  sun       none: %s (sun.json)\n", sun["why"].get<std::string>().c_str());
+            }
             if (m.contains("presets"))
                 for (const auto& [name, entry] : m["presets"].items()) {
                     std::string files;

@@ -15,6 +15,7 @@
 #include "bindings.h"
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/export/export.h"
+#include "iblbake/export/sun.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/output_dir.h"
 #include "iblbake/pipeline/bake_file.h"
@@ -184,6 +185,7 @@ pybind11::dict result_dict(const BakeResult& r) {
     for (const auto& [k, v] : r.timings) timings[pybind11::str(k)] = v;
     d["timings"] = timings;
     d["hot_texels"] = r.hot_texels;
+    d["sun"] = r.sun ? json_to_py(sun_json(*r.sun)) : pybind11::none();
     return d;
 }
 
@@ -267,7 +269,8 @@ void bind_bake(pybind11::module_& m) {
 
 With out_dir, writes SPEC.md's files there atomically. Always returns a dict with
 'irradiance' (6, N, N, 3), 'specular' (list of (6, n, n, 3)), 'roughness', 'brdf_lut' (N, N, 3),
-'specular_levels', 'sh9' (3, 9), 'bad_input', 'timings' and 'manifest'. Options (keywords): every row of
+'specular_levels', 'sh9' (3, 9), 'bad_input', 'timings', 'sun' (with sun='split': sun.json's content, else None) and
+'manifest'. Options (keywords): every row of
 options() (face_size, formats, presets, ...: the CLI's options), and for this call: progress (callable(stage,
 fraction) -> bool; False cancels), source_path, source_sha256 (the manifest's hash, when the caller has it already;
 else a written bake hashes the file or the pixels, and an unwritten one leaves it null), lut_cache_dir (a folder

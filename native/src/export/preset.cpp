@@ -32,6 +32,13 @@ std::vector<Preset> make_table() {
                          "Or a THREE.LightProbe from `sh` (adds to the environment's diffuse: use one or the other)";
         p.notes = "r187's KTX2Loader returns an uncompressed cube as a flat texture: rebuild the cube from its "
                   "mipmaps (README). Image cubes are sampled at (-x, y, z): stored x-mirrored";
+        p.light = {Mirror::None, 1.0,
+                   "DirectionalLight intensity (r155+ physical lighting): colour x intensity is the illuminance at "
+                   "normal incidence, lux when the environment is in nits",
+                   "const sun = new THREE.DirectionalLight(new THREE.Color(r, g, b), intensity); "
+                   "sun.position.set(x, y, z) (direction; its target stays at the origin); scene.add(sun); or "
+                   "GLTFLoader on sun.gltf",
+                   true};
         t.push_back(p);
     }
     {
@@ -51,6 +58,8 @@ std::vector<Preset> make_table() {
         p.lod_formula = "lod = T r, T = mip count - 1 (u_MipCount - 1)";
         p.diffuse_note = "diffuse.ktx2: the Lambertian cube, Irr (stored / pi: a white surface reflects the value)";
         p.notes = "SPEC's faces and chain unchanged; brdf_lut.png is the height-correlated Smith LUT, uv = (NdotV, r)";
+        p.light = {Mirror::None, 1.0, "KHR_lights_punctual directional light: intensity in lux (colour x intensity)",
+                   "sun.gltf: one node whose -Z is light_direction, a KHR_lights_punctual directional light", false};
         t.push_back(p);
     }
     {
@@ -69,6 +78,10 @@ std::vector<Preset> make_table() {
         p.lod_formula = "lod = T r, T = textureNumLevels - 1";
         p.diffuse_note = "diffuse.ktx2: the irradiance cube Irr, z-mirrored like the specular";
         p.notes = "Bevy samples cubes at (x, y, -z): stored z-mirrored";
+        p.light = {Mirror::None, 1.0, "DirectionalLight illuminance in lux (colour x illuminance)",
+                   "DirectionalLight { color: Color::linear_rgb(r, g, b), illuminance, ..default() } with "
+                   "Transform::from_translation(Vec3::new(x, y, z)).looking_at(Vec3::ZERO, Vec3::Y)",
+                   false};
         t.push_back(p);
     }
     {
@@ -88,6 +101,10 @@ std::vector<Preset> make_table() {
         p.diffuse_note = "ibl.ktx key `sh`: 27 floats, Filament's pre-scaled irradiance SH (sh9 x k)";
         p.notes = "skybox.ktx holds level 0 alone (createSkyFromKtx1). Filament's web build takes RGBA16F but "
                   "logs that it expects R11F_G11F_B10F (filament:r11g11b10f, about 3 % precision)";
+        p.light = {Mirror::None, 1.0, "LightManager intensity in lux (colour x intensity), Type::SUN",
+                   "LightManager::Builder(LightManager::Type::SUN).color({r, g, b}).intensity(intensity)"
+                   ".direction({lx, ly, lz}).sunAngularRadius(angular_diameter_deg / 2).build(engine, entity)",
+                   false};
         t.push_back(p);
     }
     {
@@ -109,6 +126,11 @@ std::vector<Preset> make_table() {
         p.diffuse_note = "the spherical polynomial in the header (irradiance), from the z-mirrored sh9";
         p.notes = "RGBD PNG faces for every level down to 1 x 1 (Babylon requires the full chain); Babylon looks "
                   "cubes up left-handed: stored z-mirrored";
+        p.light = {Mirror::Z, 1.0,
+                   "DirectionalLight intensity, illuminance mode (photometric scale 1): colour x intensity, lux",
+                   "const sun = new DirectionalLight('sun', new Vector3(lx, ly, lz), scene); "
+                   "sun.diffuse = new Color3(r, g, b); sun.intensity = intensity; or the glTF loader on sun.gltf",
+                   false};
         t.push_back(p);
     }
     {
@@ -127,6 +149,12 @@ std::vector<Preset> make_table() {
         p.lod_formula = "lod = 6 r (1.7 - 0.7 r) (UNITY_SPECCUBE_LOD_STEPS 6); levels below 6 hold r = 1";
         p.diffuse_note = "Unity computes its ambient SH from the skybox itself";
         p.notes = "left-handed: stored x-mirrored (unverified in a running Unity)";
+        p.light = {Mirror::X, 1.0 / 3.14159265358979323846,
+                   "Light.intensity of a directional light (built-in / URP: their diffuse BRDF leaves out "
+                   "Lambert's 1 / pi, so the intensity is E / pi), colour in linear space",
+                   "light.type = LightType.Directional; light.color = new Color(r, g, b); light.intensity = intensity; "
+                   "light.transform.rotation = Quaternion.LookRotation(new Vector3(lx, ly, lz))",
+                   false};
         t.push_back(p);
     }
     {
@@ -146,6 +174,11 @@ std::vector<Preset> make_table() {
                          "czm_sphericalHarmonics evaluates as L00 + L1-1 y + L10 z + L11 x + ...)";
         p.notes = "from CesiumJS's shaders; not rendered in Cesium here: the axes of its IBL reference frame "
                   "(iblReferenceFrameMatrix) are unverified";
+        p.light = {Mirror::None, 1.0, "DirectionalLight intensity (colour x intensity); the axes of Cesium's IBL "
+                   "frame are unverified",
+                   "scene.light = new Cesium.DirectionalLight({ direction: new Cesium.Cartesian3(lx, ly, lz), "
+                   "color: new Cesium.Color(r, g, b), intensity })",
+                   false};
         t.push_back(p);
     }
     {
@@ -165,6 +198,11 @@ std::vector<Preset> make_table() {
         p.notes = "these engines filter IBL at import or at run time, so a prefiltered chain would be filtered "
                   "again: they get the source lat-long (cleaned of NaN, Inf and negative values) as EXR and "
                   "Radiance HDR";
+        p.light = {Mirror::None, 1.0, "lux (Unreal's Directional Light, Godot's DirectionalLight3D with physical "
+                   "light units): colour x intensity",
+                   "import sun.gltf with the engine's glTF importer (it converts the axes); Unreal's Source Angle = "
+                   "angular_diameter_deg, Godot's angular_distance = angular_diameter_deg / 2",
+                   false};
         t.push_back(p);
     }
     return t;

@@ -114,10 +114,18 @@ uint64_t write_hdr(const std::string& path, const Image& img) {
     return clamped;
 }
 
-void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+namespace {
+
+void write_file(const std::string& path, const void* data, size_t size) {
     File f = open_for_writing(path);
-    write_all(f.get(), bytes.data(), bytes.size(), path);
+    write_all(f.get(), data, size, path);
     flush(f.get(), path);
 }
+
+}  // namespace
+
+void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) { write_file(path, bytes.data(), bytes.size()); }
+
+void write_text(const std::string& path, const std::string& text) { write_file(path, text.data(), text.size()); }
 
 }  // namespace iblbake::io

@@ -13,6 +13,7 @@ BakePlan make_plan(BakeOptions bo, WriteOptions wo) {
     BakePlan plan;
     plan.presets = plan_presets(bo, wo.presets);
     bo.extra = extra_outputs(bo, plan.presets);
+    plan.sun_light = bo.sun == SunMode::Split;
     plan.bake = std::move(bo);
     plan.write = std::move(wo);
     return plan;

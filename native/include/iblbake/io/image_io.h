@@ -90,5 +90,7 @@ uint64_t write_hdr(const std::string& path, const Image& img);
 bool float_to_rgbe(const float rgb[3], uint8_t out[4]);
 // A file of these bytes (exported containers).
 void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes);
+// A text file (JSON) of these characters.
+void write_text(const std::string& path, const std::string& text);
 
 }  // namespace iblbake::io
