@@ -450,6 +450,21 @@ LevelAccuracy level_accuracy(const std::vector<MeasureTexel>& texels, const std:
     return a;
 }
 
+ChannelAccuracy level_accuracy_rgb(const std::vector<MeasureTexel>& texels, const std::vector<Rgb>& out,
+                                   const std::vector<Rgb>& ref, int n, const Rgb& mean) {
+    ChannelAccuracy a;
+    std::vector<double> o(out.size()), r(ref.size());
+    for (int c = 0; c < 3; ++c) {
+        for (size_t k = 0; k < out.size(); ++k) o[k] = out[k][c], r[k] = ref[k][c];
+        const LevelAccuracy& l = a.channel[c] = level_accuracy(texels, o, r, n, mean[c]);
+        if (c == 0 || l.max_e > a.max_e) a.max_e = l.max_e, a.worst_channel = c;
+        a.p99_e = std::max(a.p99_e, l.p99_e);
+        a.sa_rms = std::max(a.sa_rms, l.sa_rms);
+        if (std::fabs(l.bias) > std::fabs(a.bias)) a.bias = l.bias;
+    }
+    return a;
+}
+
 Image constant_source(int w, int h, float value) {
     Image img(w, h);
     std::fill(img.pixels.begin(), img.pixels.end(), value);
@@ -489,6 +504,21 @@ Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, floa
             const float base = sky * float(0.5 + 0.5 * std::max(0.0, t.z));
             p[0] = base; p[1] = base; p[2] = base * 1.2f;
             if (dot(t, d) >= cr) p[0] = sun, p[1] = sun * 0.9f, p[2] = sun * 0.8f;
+        }
+    return img;
+}
+
+Image red_sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky) {
+    Image img(w, h);
+    const double cr = std::cos(radius_deg * kPi / 180);
+    const Vec3d d = normalize(blender_dir);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const Vec3d t = latlong_texel_direction(x, y, w, h);
+            float* p = img.at(x, y);
+            const float base = sky * float(0.5 + 0.5 * std::max(0.0, t.z));
+            p[0] = 0.1f * base, p[1] = 0.3f * base, p[2] = base;
+            if (dot(t, d) >= cr) p[0] = sun, p[1] = 0.1f * sun, p[2] = 0.001f * sun;
         }
     return img;
 }
