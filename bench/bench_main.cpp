@@ -21,7 +21,7 @@
 //   sun W H OUT.exr
 //       the pure-sun source: a 0.5 deg disc of 5e4 on a dim sky
 //   redsun W H OUT.exr
-//       issue 25's chromatic source: a red 0.5 deg disc of (5e4, 5e3, 50),
+//       issue 25's chromatic source: a red 0.5 deg disc of (5e4, 5e3, 0),
 //       10 deg above the horizon, in a blue sky of (0.1, 0.3, 1) at the zenith
 #include <algorithm>
 #include <chrono>

@@ -76,7 +76,7 @@ DESCRIPTIONS = {
     "sun_2k": "pure sun: 0.5 deg disc of 5e4 on a dim sky, 2048 x 1024",
     "nishita_2k": "Nishita sky (Blender's Sky Texture, default sun), Cycles, 2048 x 1024",
     "nishita_strong_2k": "Nishita sky, sun 4 deg up (disc about 1e6 red, 7e4 blue), Cycles, 2048 x 1024",
-    "redsun_1k": "red sun: 0.5 deg disc of (5e4, 5e3, 50) in a blue sky of (0.1, 0.3, 1), 1024 x 512",
+    "redsun_1k": "red sun: 0.5 deg disc of (5e4, 5e3, 0) in a blue sky of (0.1, 0.3, 1), 1024 x 512",
     "checker_2k": "checkerboard 0.01 / 1, 64 px squares, 2048 x 1024",
     "sunset_2k": "sunset.exr resized to 2048 x 1024",
     "sunset_4k": "sunset.exr resized to 4096 x 2048",

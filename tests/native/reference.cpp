@@ -518,7 +518,7 @@ Image red_sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, 
             float* p = img.at(x, y);
             const float base = sky * float(0.5 + 0.5 * std::max(0.0, t.z));
             p[0] = 0.1f * base, p[1] = 0.3f * base, p[2] = base;
-            if (dot(t, d) >= cr) p[0] = sun, p[1] = 0.1f * sun, p[2] = 0.001f * sun;
+            if (dot(t, d) >= cr) p[0] = sun, p[1] = 0.1f * sun, p[2] = 0.0f;
         }
     return img;
 }

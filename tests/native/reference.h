@@ -135,9 +135,9 @@ Image random_smooth_source(int w, int h, unsigned seed);  // positive, a few oct
 // A disc of `radius_deg` and radiance `sun` around the Blender direction `dir`, on a `sky` background.
 Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky);
 // Issue 25's chromatic contrast: a red sun disc of `radius_deg` around the
-// Blender direction `dir`, radiance sun x (1, 0.1, 0.001) (red to blue
-// 1000:1), in a blue sky sky x (0.1, 0.3, 1) x (0.5 + 0.5 max(0, z)) (blue
-// to red 10:1).
+// Blender direction `dir`, radiance sun x (1, 0.1, 0) (no blue at all, as
+// sunset.exr's sun has next to none), in a blue sky sky x (0.1, 0.3, 1) x
+// (0.5 + 0.5 max(0, z)) (blue to red 10:1).
 Image red_sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky);
 // Solid-angle-weighted mean radiance per channel (texel-constant radiance).
 std::array<double, 3> mean_radiance(const Image& img);
