@@ -542,7 +542,10 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         if (need_tree) {
             report("specular", done);
             r.specular_base_face = finest_bins;
-            tree = build_bin_tree(integrand, finest_bins, irr_from_tree ? &irr_bins : nullptr, o.irradiance_bins);
+            BinTreeOptions tree_options;
+            tree_options.channel_mean = r.mean_radiance.data();
+            tree = build_bin_tree(integrand, finest_bins, irr_from_tree ? &irr_bins : nullptr, o.irradiance_bins,
+                                  tree_options);
             clock.done("bin_tree");
         }
 

@@ -376,7 +376,7 @@ Tile make_tile(int tile, int n, int T) {
 // next. The accepted bins' fields go into acc, structure-of-arrays, padded
 // to whole lanes with bins of no power. Returns the number accepted.
 size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, float horizon_radius,
-                   std::vector<float> (&acc)[kFields]) {
+                   std::vector<float> (&acc)[kFields], std::vector<const BinNode*>& chromatic) {
     thread_local std::vector<uint32_t> cur, next;
     thread_local std::vector<const BinNode*> accepted;
     cur.clear();
@@ -451,14 +451,194 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     const size_t count = accepted.size();
     const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
     for (auto& a : acc) a.resize(padded);
+    // The bins of varying colour among them (chroma_pass), branch-free.
+    chromatic.resize(count + 1);
+    size_t nc = 0;
     for (size_t i = 0; i < count; ++i) {
         const BinNode& nd = *accepted[i];
+        chromatic[nc] = &nd;
+        nc += nd.chroma != 0;
         acc[kernel::kPx][i] = nd.px, acc[kernel::kPy][i] = nd.py, acc[kernel::kPz][i] = nd.pz;
         acc[kernel::kG][i] = nd.g;
         for (int ch = 0; ch < 3; ++ch) acc[kernel::kP0 + ch][i] = nd.power[ch];
         for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k][i] = nd.cov[k];
     }
     for (auto& a : acc) std::fill(a.begin() + count, a.end(), 0.0f);
+    chromatic.resize(nc);
+    return count;
+}
+
+// One lobe of a group, as the chroma pass reads it.
+struct Lobe {
+    double inv_z;  // kernel sum -> output
+    Cubemap* dst;
+};
+
+// The kernel's variation across n bins of varying colour seen from a
+// tile (chroma_pass): per lobe g, dk[g n + b] = inv_z (k(theta - beta) -
+// k(theta + beta)), theta = max(0, d - rho) the bin's distance to the
+// tile's nearest texel (d from the tile's centre c), beta the bin's radius,
+// k(c) = c / t^2 (t = (1 - c)(1 - a2) + 2 a2) for c > 0, else 0; angles by
+// their cosines and sines. geo: the bins' p (x, y, z), cos beta, sin beta,
+// n each. Built per instruction set without fused multiply-add: the same
+// bits, so the same bins chosen, on every CPU.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
+#endif
+void kernel_variation(const float* geo, size_t n, float cx, float cy, float cz, float cr, float sr, int K,
+                      const float* a2, const float* inv_z, float* dk) {
+    const float *px = geo, *py = geo + n, *pz = geo + 2 * n, *cb = geo + 3 * n, *sb = geo + 4 * n;
+    for (int g = 0; g < K; ++g) {
+        const float s = 1.0f - a2[g], t2 = 2.0f * a2[g], iz = inv_z[g];
+        float* out = dk + size_t(g) * n;
+        for (size_t b = 0; b < n; ++b) {
+            const float cd = std::min(1.0f, cx * px[b] + cy * py[b] + cz * pz[b]);
+            const float sd = std::sqrt(std::max(0.0f, 1.0f - cd * cd));
+            const bool inside = cd >= cr;  // d <= rho: theta = 0
+            const float ct = inside ? 1.0f : cd * cr + sd * sr, st = inside ? 0.0f : sd * cr - cd * sr;
+            const float cn = ct >= cb[b] ? 1.0f : ct * cb[b] + st * sb[b];  // theta <= beta: 0
+            const float cf = ct * cb[b] - st * sb[b];
+            const float tn = (1.0f - cn) * s + t2, tf = (1.0f - cf) * s + t2;
+            const float kn = cn > 0.0f ? cn / (tn * tn) : 0.0f, kf = cf > 0.0f ? cf / (tf * tf) : 0.0f;
+            out[b] = (kn - kf) * iz;
+        }
+    }
+}
+
+// Issue 25's second pass over a tile (bin_tree.h): the tile's texels have
+// their sums over every bin whole. A bin of varying colour can be off in
+// channel c by at most its power P_c times the kernel's variation across it,
+// dk = k(theta - beta) - k(theta + beta) at its distance theta from the
+// nearest texel (inv_z k: the output's units), and by about min(1, s_c) of
+// that (bin_tree.h's s_c: the first-order term k' n.d is dk/(2 beta) |d| at
+// most, the second-order one likewise). Bins' errors of one sign add up (a
+// sky's colour gradient puts every bin's blue above its red), so the
+// budget is per tile: while the estimates of the bins taken whole add up to
+// more than tol x the tile's least value in some channel (at least 0.05 x
+// the channel's mean, the metric's floor), the bin with the largest
+// estimate against that bound is taken as its groups instead: the groups
+// summed with their powers and the bin itself with its powers negated, added
+// to each texel. The bins are taken in buckets of the binary exponent of
+// that ratio, largest first (within a factor 2 of the largest-first order,
+// with no sort). tol 0: every bin of varying colour. Returns the number of
+// bins summed.
+size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const BinNode*>& chromatic,
+                   const Lobe* lobes, int K, const float* a2, double tol, kernel::SumsFn sums) {
+    double limit[kernel::kMaxLobes][3];
+    float inv_limit[kernel::kMaxLobes][3];
+    for (int g = 0; g < K; ++g) {
+        float least[3] = {INFINITY, INFINITY, INFINITY};
+        for (int j = t.j0; j < t.j1; ++j)
+            for (int i = t.i0; i < t.i1; ++i) {
+                const float* o = lobes[g].dst->at(t.face, i, j);
+                for (int c = 0; c < 3; ++c) least[c] = std::min(least[c], o[c]);
+            }
+        // Rounded down to an eighth of an octave: the limits, and so the
+        // bins chosen, do not follow the sums' last bits (which differ
+        // between the kernels of different instruction sets).
+        for (int c = 0; c < 3; ++c) {
+            int e = 0;
+            const double m = std::frexp(std::max(0.05 * tree.channel_mean[c], double(least[c])), &e);
+            limit[g][c] = tol * std::ldexp(std::floor(m * 16.0) / 16.0, e);
+            inv_limit[g][c] = float(1.0 / limit[g][c]);
+        }
+    }
+    // Each bin's kernel variation per lobe (in lanes), its estimates (K x
+    // 3), their totals, and the bins by their largest estimate against the
+    // limits, in buckets of its binary exponent.
+    const size_t n = chromatic.size(), per_bin = size_t(K) * 3;
+    thread_local std::vector<float> geo, dk, est;
+    thread_local std::vector<uint32_t> bucket_of, order;
+    geo.resize(5 * n);
+    dk.resize(size_t(K) * n);
+    est.resize(n * per_bin);
+    bucket_of.resize(n);
+    for (size_t b = 0; b < n; ++b) {
+        const BinNode* nd = chromatic[b];
+        const ChromaBin& cb = tree.chroma[nd->chroma - 1];
+        geo[b] = nd->px, geo[n + b] = nd->py, geo[2 * n + b] = nd->pz;
+        geo[3 * n + b] = cb.cos_r, geo[4 * n + b] = cb.sin_r;
+    }
+    float inv_z[kernel::kMaxLobes];
+    for (int g = 0; g < K; ++g) inv_z[g] = float(lobes[g].inv_z);
+    kernel_variation(geo.data(), n, t.c.x, t.c.y, t.c.z, std::cos(t.rho), std::sin(t.rho), K, a2, inv_z, dk.data());
+    double total[kernel::kMaxLobes][3] = {};
+    uint32_t count_in[256] = {};
+    for (size_t b = 0; b < n; ++b) {
+        const BinNode* nd = chromatic[b];
+        const ChromaBin& cb = tree.chroma[nd->chroma - 1];
+        float key = 0.0f;
+        float* e = est.data() + b * per_bin;
+        for (int g = 0; g < K; ++g)
+            for (int c = 0; c < 3; ++c) {
+                const float v = cb.score[c] * nd->power[c] * dk[size_t(g) * n + b];
+                e[3 * g + c] = v;
+                total[g][c] += v;
+                key = std::max(key, v * inv_limit[g][c]);
+            }
+        uint32_t bits;
+        std::memcpy(&bits, &key, sizeof(bits));
+        bucket_of[b] = key > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
+        ++count_in[bucket_of[b]];
+    }
+    auto over = [&] {
+        for (int g = 0; g < K; ++g)
+            for (int c = 0; c < 3; ++c)
+                if (total[g][c] > limit[g][c]) return true;
+        return false;
+    };
+    if (!over()) return 0;
+    // The bins by bucket, largest first (in order of index within one).
+    uint32_t start[256];
+    uint32_t sum = 0;
+    for (int k = 255; k >= 1; --k) start[k] = sum, sum += count_in[k];
+    order.resize(sum);
+    for (size_t b = 0; b < n; ++b)
+        if (bucket_of[b]) order[start[bucket_of[b]]++] = uint32_t(b);
+    thread_local std::vector<float> acc[kFields];
+    for (auto& a : acc) a.clear();
+    auto push = [&](const float* p, float g, const float* power, const float* cov, float cov_scale) {
+        acc[kernel::kPx].push_back(p[0]), acc[kernel::kPy].push_back(p[1]), acc[kernel::kPz].push_back(p[2]);
+        acc[kernel::kG].push_back(g);
+        for (int c = 0; c < 3; ++c) acc[kernel::kP0 + c].push_back(power[c]);
+        for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k].push_back(cov[k] * cov_scale);
+    };
+    for (const uint32_t b : order) {
+        if (!over()) break;
+        const float* e = est.data() + b * per_bin;
+        for (int g = 0; g < K; ++g)
+            for (int c = 0; c < 3; ++c) total[g][c] -= e[3 * g + c];
+        const BinNode* nd = chromatic[b];
+        const ChromaBin& cb = tree.chroma[nd->chroma - 1];
+        const float p[3] = {nd->px, nd->py, nd->pz};
+        const float minus[3] = {-nd->power[0], -nd->power[1], -nd->power[2]};
+        push(p, nd->g, minus, nd->cov, 1.0f);
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t mask = cb.channels >> (3 * k) & 7u;
+            if (!mask) break;
+            const ChromaGroup& gr = cb.group[k];
+            const float gp[3] = {gr.px, gr.py, gr.pz};
+            float power[3];
+            for (int c = 0; c < 3; ++c) power[c] = mask >> c & 1u ? nd->power[c] : 0.0f;
+            push(gp, gr.g, power, nd->cov, gr.cov_scale);
+        }
+    }
+    const size_t count = acc[0].size();
+    const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
+    for (auto& a : acc) a.resize(padded, 0.0f);
+    const float* fields[kFields];
+    for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
+    size_t k = 0;
+    for (int j = t.j0; j < t.j1; ++j)
+        for (int i = t.i0; i < t.i1; ++i, ++k) {
+            double num[kernel::kMaxLobes][3];
+            const Vec3& d = t.dirs[k];
+            sums(fields, padded, K, a2, d.x, d.y, d.z, num);
+            for (int g = 0; g < K; ++g) {
+                float* o = lobes[g].dst->at(t.face, i, j);
+                for (int ch = 0; ch < 3; ++ch) o[ch] = float(o[ch] + num[g][ch] * lobes[g].inv_z);
+            }
+        }
     return count;
 }
 
@@ -525,10 +705,13 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
     const int T = std::max(1, std::min(tile, n / 4));
     const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
     std::vector<double> used(tiles, 0.0);
+    Lobe lobes[kernel::kMaxLobes];
+    for (int k = 0; k < K; ++k) lobes[k] = {inv_z[k], targets[k].dst};
     parallel_for(0, tiles, [&](int tile) {
         const Tile t = make_tile(tile, n, T);
         thread_local std::vector<float> acc[kFields];
-        used[tile] = double(gather_bins(tree, t, scale, eps, horizon_radius, acc));
+        thread_local std::vector<const BinNode*> chromatic;
+        used[tile] = double(gather_bins(tree, t, scale, eps, horizon_radius, acc, chromatic));
         const size_t padded = acc[0].size();
         const float* fields[kFields];
         for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
@@ -543,6 +726,8 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
                     for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[g][ch] * inv_z[g]);
                 }
             }
+        if (!chromatic.empty() && q.chroma >= 0.0)
+            used[tile] += double(chroma_pass(tree, t, chromatic, lobes, K, a2, q.chroma, sums));
     });
     double total = 0.0;
     for (double u : used) total += u;

@@ -2,8 +2,10 @@
 // bilinear L) for hierarchical kernel sums: level 0 is the finest grid
 // (w x w/2, w a power of two), each coarser level sums 2 x 2 bins exactly.
 // Each bin keeps the zeroth, first and second moments of its radiance, as
-// floats, structure-of-arrays.
+// floats, structure-of-arrays; a bin whose colour varies keeps its channels'
+// means too (ChromaBin).
 #pragma once
+#include <cstdint>
 #include <vector>
 
 #include "iblbake/image/image.h"
@@ -25,9 +27,43 @@ struct alignas(64) BinNode {
     // Angular radius about p: the largest angle from p to the bin's corners
     // and edge midpoints (radians); negative for a bin with no radiance.
     float radius;
-    float unused[2];
+    // 0, or 1 + the index of this bin's ChromaBin in BinTree::chroma.
+    uint32_t chroma;
+    float unused;
 };
 static_assert(sizeof(BinNode) == 64, "a bin is one cache line");
+
+// Issue 25: the second-order rule (specular.h) takes a bin's radiance in
+// every channel at the channel sum's mean m and covariance C. Channel c's own
+// mean m_c = V_c / P_c is exact (the bins keep the first moments per
+// channel), and so is its spread, tr C_c = 1 - |m_c|^2 (w is a unit
+// vector). Where they differ from the sum's, channel c's term
+// E_c[k(n.w)] is off by about (Taylor expansion about n.m, as for the rule)
+//   k'(n.m) n.d + k''(n.m)/2 n^T (C_c - C + d d^T) n,   d = m_c - m,
+// that is, relative to the bin's share in channel c, with the kernel's
+// derivatives in units of its length scale l at the bin (a bin of radius
+// beta is taken whole where beta <= eps l), of order s_c beta / l with
+//   s_c = |d| / beta + (|tr C_c - tr C| + |d|^2) / (2 beta^2)
+// (the trace standing for the covariance, which the bins keep for the sum
+// alone). A bin with max_c a_c s_c above the build's tolerance, a_c =
+// min(1, 20 P_c / (Omega mean_c)) its mean radiance in c against the
+// metric's floor 0.05 x mean_c (darker bins can only move darker texels),
+// keeps its channels in two groups (one channel alone, the other two
+// together, where those two are within the tolerance of their own moments)
+// or three; each group is a bin of those channels' power, their exact mean,
+// and the sum's covariance scaled to the group's trace,
+// C_G = C (1 - |m_G|^2) / (1 - |m|^2). specular.cpp takes a bin as its
+// groups where its error in some channel matters to the texels at hand.
+struct ChromaGroup {
+    float px, py, pz, g;  // unit centroid and 1 - |m_G|, as BinNode's
+    float cov_scale;      // C_G = cov_scale x BinNode::cov
+};
+struct ChromaBin {
+    float score[3];       // min(1, s_c) per channel
+    uint32_t channels;    // group k's channels in bits 3k .. 3k+2 (red, green, blue); none past the last group
+    float cos_r, sin_r;   // of BinNode::radius
+    ChromaGroup group[3];
+};
 
 struct BinLevel {
     int w = 0, h = 0;
@@ -36,12 +72,25 @@ struct BinLevel {
 };
 
 struct BinTree {
-    std::vector<BinLevel> levels;  // [0] finest
+    std::vector<BinLevel> levels;   // [0] finest
+    std::vector<ChromaBin> chroma;  // the bins of varying colour (BinNode::chroma)
+    double channel_mean[3] = {0, 0, 0};
+};
+
+struct BinTreeOptions {
+    // Bins with max_c a_c s_c above this keep their channels' groups
+    // (measured with HierarchicalQuality::chroma 0.01, issue 25: 0.04 left
+    // sunset.exr's red sun 1.2 % off in blue; 0.01 kept twice the bins of
+    // 0.02 for 0.4 % instead of 0.5 % there).
+    double chroma_tolerance = 0.02;
+    // The image's mean radiance per channel (a_c's mean_c); null: computed.
+    const double* channel_mean = nullptr;
 };
 
 // finest_w: bins across at level 0 (a power of two >= 2). With `keep`, the
 // exact bins (ibl/source.h) at keep_w across (a power of two in 2..finest_w/4)
 // are copied there on the way: another reduction of the same image for free.
-BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep = nullptr, int keep_w = 0);
+BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep = nullptr, int keep_w = 0,
+                       const BinTreeOptions& options = {});
 
 }  // namespace iblbake
