@@ -12,7 +12,8 @@
 // ones; saRMS and bias over the uniform random sample. Not a test: a
 // measuring tool for closing notes and benchmarks.
 //
-//   --face N --mips M --irradiance-size N --eps X --tile T   bake options
+//   --face N --mips M --irradiance-size N --eps X --tile T --chroma X
+//   --irradiance-bins N --hot-threshold X --max-hot N         bake options
 //   --per-level K     random texels per large level (default 300)
 //   --small-face S    levels of face <= S are measured at every texel (default 32)
 //   --ref-cache FILE  keep the reference values (RGB) there (computed once per
@@ -99,7 +100,8 @@ void store_cache(const std::string& path, int w, int h, const std::vector<Output
 int main(int argc, char** argv) {
     if (argc < 2) {
         std::fprintf(stderr,
-                     "usage: iblbake_accuracy SOURCE [--face N] [--mips M] [--irradiance-size N] [--eps X] [--tile T]\n"
+                     "usage: iblbake_accuracy SOURCE [--face N] [--mips M] [--irradiance-size N] [--eps X] [--tile T] [--chroma X]\n"
+                     "       [--irradiance-bins N] [--hot-threshold X] [--max-hot N]\n"
                      "       [--per-level K] [--small-face S] [--ref-cache FILE] [--worst K]\n");
         return 2;
     }
@@ -118,6 +120,10 @@ int main(int argc, char** argv) {
         else if (k == "--tile") o.hierarchical.tile = int(v);
         else if (k == "--finest-eps") o.hierarchical.finest_eps = v;
         else if (k == "--horizon") o.hierarchical.horizon = v;
+        else if (k == "--chroma") o.hierarchical.chroma = v;
+        else if (k == "--irradiance-bins") o.irradiance_bins = int(v);
+        else if (k == "--hot-threshold") o.hot_threshold = v;
+        else if (k == "--max-hot") o.max_hot = int(v);
         else if (k == "--ref-cache") cache = argv[a + 1];
         else if (k == "--worst") worst = int(v);
         else { std::fprintf(stderr, "unknown option %s\n", k.c_str()); return 2; }
