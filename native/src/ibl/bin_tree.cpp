@@ -15,8 +15,8 @@ namespace iblbake {
 namespace {
 
 // Fills a BinLevel row by row from exact bins: radiance centroids, powers,
-// covariances, radii; and the groups of the bins of varying colour (kept
-// per row until finish() numbers them).
+// covariances, radii; and the per-channel moments of the bins of varying
+// colour (kept per row until finish() numbers them).
 class LevelFiller {
 public:
     LevelFiller(BinLevel& level, int w, int h, const double* channel_mean, double chroma_tolerance)
@@ -80,7 +80,7 @@ public:
             const float radius = L_.nodes[L_.index(x, y)].radius;
             if (radius >= 0.0f && colour_varies(bins[x], radius, inv_omega)) {
                 chroma.emplace_back(x, ChromaBin{});
-                chroma_groups(bins[x], radius, inv_omega, chroma.back().second);
+                channel_moments(bins[x], radius, chroma.back().second);
             }
         }
     }
@@ -135,75 +135,35 @@ private:
         return varies;
     }
 
-    // The scores and groups of a bin whose colour varies (bin_tree.h); out
-    // of line, so that the loops above stay lean.
+    // The scores and per-channel moments of a bin whose colour varies
+    // (bin_tree.h); out of line, so that the loops above stay lean.
 #if defined(__GNUC__)
     __attribute__((noinline))
 #endif
-    void chroma_groups(const Bin& b, double beta, double inv_omega, ChromaBin& out) const {
+    void channel_moments(const Bin& b, double beta, ChromaBin& out) const {
         beta = std::max(beta, 1e-9);
         const double ib = 1.0 / beta, ib2 = 0.5 * ib * ib;
-        double P[3], a[3], mcc[3] = {0, 0, 0};
-        Vec3d V[3], m{0, 0, 0};
-        double psum = 0.0;
-        for (int c = 0; c < 3; ++c) {
-            P[c] = b.power[c];
-            V[c] = Vec3d{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
-            a[c] = weight(c, P[c], inv_omega);
-            psum += P[c];
-            m += V[c];
-        }
+        const double psum = b.power[0] + b.power[1] + b.power[2];
+        Vec3d m{0, 0, 0};
+        for (int c = 0; c < 3; ++c) m += Vec3d{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
         m = m / psum;
-        Vec3d M[3] = {m, m, m};
-        const double mm = dot(m, m);
-        for (int c = 0; c < 3; ++c) {
-            out.score[c] = 0.0f;
-            if (!(P[c] > 0.0)) continue;
-            M[c] = V[c] / P[c];
-            mcc[c] = dot(M[c], M[c]);
-            const Vec3d dv = M[c] - m;
-            const double d2 = dot(dv, dv);
-            out.score[c] = float(std::min(1.0, std::sqrt(d2) * ib + (std::fabs(mm - mcc[c]) + d2) * ib2));
-        }
-        // s_c of channel c against a group of mean mg.
-        auto s = [&](int c, const Vec3d& mg) {
-            if (!(P[c] > 0.0)) return 0.0;
-            const Vec3d dv = M[c] - mg;
-            const double d2 = dot(dv, dv);
-            return std::sqrt(d2) * ib + (std::fabs(dot(mg, mg) - mcc[c]) + d2) * ib2;
-        };
+        const double mm = dot(m, m), trace = 1.0 - mm;
         out.cos_r = float(std::cos(beta));
         out.sin_r = float(std::sin(beta));
-        // Two groups where one channel alone leaves the other two within the
-        // tolerance of their own mean; the best such channel; else three.
-        int alone = -1;
-        double best = tol_;
         for (int c = 0; c < 3; ++c) {
-            const int i = (c + 1) % 3, j = (c + 2) % 3;
-            const double pp = P[i] + P[j];
-            if (!(pp > 0.0)) continue;
-            const Vec3d mp = (V[i] + V[j]) / pp;
-            const double pair = std::max(a[i] * s(i, mp), a[j] * s(j, mp));
-            if (pair <= best) alone = c, best = pair;
-        }
-        const uint32_t masks[3] = {alone < 0 ? 1u : 1u << alone, alone < 0 ? 2u : 7u & ~(1u << alone),
-                                   alone < 0 ? 4u : 0u};
-        const double trace = 1.0 - dot(m, m);
-        out.channels = 0;
-        for (int k = 0; k < 3 && masks[k]; ++k) {
-            out.channels |= masks[k] << (3 * k);
-            double pg = 0.0;
-            Vec3d vg{0, 0, 0};
-            for (int c = 0; c < 3; ++c)
-                if (masks[k] >> c & 1u) pg += P[c], vg += V[c];
-            ChromaGroup& g = out.group[k];
-            g = ChromaGroup{0, 0, 1, 0, 1};
-            const double vl = length(vg);
-            if (!(pg > 0.0) || !(vl > 0.0)) continue;  // no power: adds nothing
-            const Vec3d mg = vg / pg, p = vg / vl;
-            g.px = float(p.x), g.py = float(p.y), g.pz = float(p.z);
-            g.g = float(std::max(0.0, 1.0 - vl / pg));
-            g.cov_scale = trace > 0.0 ? float((1.0 - dot(mg, mg)) / trace) : 1.0f;
+            const double pc = b.power[c];
+            const Vec3d vc{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
+            const double vl = length(vc);
+            ChromaChannel& ch = out.channel[c];
+            ch = ChromaChannel{0, 0, 1, 0, 1};
+            out.score[c] = 0.0f;
+            if (!(pc > 0.0) || !(vl > 0.0)) continue;  // no power: adds nothing
+            const Vec3d mc = vc / pc, p = vc / vl, dv = mc - m;
+            const double mcc = dot(mc, mc), d2 = dot(dv, dv);
+            out.score[c] = float(std::min(1.0, std::sqrt(d2) * ib + (std::fabs(mm - mcc) + d2) * ib2));
+            ch.px = float(p.x), ch.py = float(p.y), ch.pz = float(p.z);
+            ch.g = float(std::max(0.0, 1.0 - vl / pc));
+            ch.cov_scale = trace > 0.0 ? float((1.0 - mcc) / trace) : 1.0f;
         }
     }
 

@@ -516,9 +516,9 @@ void kernel_variation(const float* geo, size_t n, float cx, float cy, float cz, 
 // budget is per tile: while the estimates of the bins taken whole add up to
 // more than tol x the tile's least value in some channel (at least 0.05 x
 // the channel's mean, the metric's floor), the bin with the largest
-// estimate against that bound is taken as its groups instead: the groups
-// summed with their powers and the bin itself with its powers negated, added
-// to each texel. The bins are taken in buckets of the binary exponent of
+// estimate against that bound is taken as its channels instead: the
+// channels summed with their powers and the bin itself with its powers
+// negated, added to each texel. The bins are taken in buckets of the binary exponent of
 // that ratio, largest first (within a factor 2 of the largest-first order,
 // with no sort). tol 0: every bin of varying colour. Returns the number of
 // bins summed.
@@ -614,13 +614,12 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
         const float minus[3] = {-nd->power[0], -nd->power[1], -nd->power[2]};
         push(p, nd->g, minus, nd->cov, 1.0f);
         for (int k = 0; k < 3; ++k) {
-            const uint32_t mask = cb.channels >> (3 * k) & 7u;
-            if (!mask) break;
-            const ChromaGroup& gr = cb.group[k];
-            const float gp[3] = {gr.px, gr.py, gr.pz};
-            float power[3];
-            for (int c = 0; c < 3; ++c) power[c] = mask >> c & 1u ? nd->power[c] : 0.0f;
-            push(gp, gr.g, power, nd->cov, gr.cov_scale);
+            if (!(nd->power[k] != 0.0f)) continue;
+            const ChromaChannel& ch = cb.channel[k];
+            const float cp[3] = {ch.px, ch.py, ch.pz};
+            float power[3] = {0, 0, 0};
+            power[k] = nd->power[k];
+            push(cp, ch.g, power, nd->cov, ch.cov_scale);
         }
     }
     const size_t count = acc[0].size();

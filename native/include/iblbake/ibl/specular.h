@@ -53,8 +53,8 @@ struct HierarchicalQuality {
     // worst texel only from 0.29 % to 0.22 % on sunset.exr; measured).
     double finest_eps = 0.5;
     double horizon = 0.05;     // bins that may straddle a texel's horizon: radius <= eps horizon / sqrt(D(45 deg) / Z)
-    // Bins of varying colour (bin_tree.h's ChromaBin) are taken as their
-    // groups of channels, largest estimated error first, while the errors
+    // Bins of varying colour (bin_tree.h's ChromaBin) are taken channel by
+    // channel, largest estimated error first, while the errors
     // of those taken whole add up to more than this times a tile's least
     // value in some channel (at least 0.05 x the channel's mean, the
     // metric's floor); 0: every one, negative: none. 0.01: measured (issue
@@ -71,7 +71,7 @@ struct HierarchicalQuality {
 // (mean m and covariance C of w):
 //   Pre(n) = sum_b P_b [k(n.m_b) + k''(n.m_b) n^T C_b n / 2] / Z,
 // with Z the kernel's integral in closed form; a bin whose colour varies
-// (bin_tree.h) is taken by groups of channels, each with its own moments,
+// (bin_tree.h) is taken channel by channel, each with its own moments,
 // where that matters (HierarchicalQuality::chroma). The result is a deterministic
 // quadrature of SPEC.md's integral over the bilinear L whose error is set
 // by eps, with no sampling noise and no clamping.
