@@ -282,6 +282,41 @@ TEST(Specular, EveryChannelWithinOnePercentNearARedSun) {
     EXPECT_LT(worst, 1e-2);
 }
 
+TEST(Specular, BinsOfVaryingColourKeepTheirChannelsMeans) {
+    // bin_tree.h: a grey world has no bin of varying colour; on a red sun in
+    // a blue sky the bins that straddle the sun keep each channel's mean,
+    // and the channels' first moments add up to the bin's (P_c m_c summed
+    // over c is P m, the channel sum's).
+    Image grey = ref::random_smooth_source(256, 128, 3);
+    for (size_t k = 0; k < grey.pixels.size(); k += 3) grey.pixels[k + 1] = grey.pixels[k + 2] = grey.pixels[k];
+    EXPECT_TRUE(build_bin_tree(grey, 256).chroma.empty());
+    const Image src = ref::red_sun_source(256, 128, {-0.3, 0.94, 0.17}, 1.0, 5e4f, 1.0f);
+    const BinTree tree = build_bin_tree(src, 256);
+    ASSERT_FALSE(tree.chroma.empty());
+    size_t checked = 0;
+    for (const BinLevel& level : tree.levels)
+        for (size_t i = 0; i < level.nodes.size(); ++i) {
+            const BinNode& nd = level.nodes[i];
+            if (!nd.chroma) continue;
+            const ChromaBin& cb = tree.chroma.at(nd.chroma - 1);
+            double sum[3] = {0, 0, 0}, psum = 0.0;
+            for (int c = 0; c < 3; ++c) {
+                const ChromaChannel& ch = cb.channel[c];
+                const double l = 1.0 - ch.g;  // |m_c|
+                sum[0] += nd.power[c] * l * ch.px, sum[1] += nd.power[c] * l * ch.py, sum[2] += nd.power[c] * l * ch.pz;
+                psum += nd.power[c];
+                EXPECT_GE(cb.score[c], 0.0f);
+                EXPECT_LE(cb.score[c], 1.0f);
+            }
+            const double l = 1.0 - nd.g, m[3] = {nd.px * l, nd.py * l, nd.pz * l};
+            for (int k = 0; k < 3; ++k) EXPECT_NEAR(sum[k] / psum, m[k], 1e-5) << "level " << level.w << " bin " << i;
+            EXPECT_NEAR(cb.cos_r, std::cos(nd.radius), 1e-6);
+            ++checked;
+        }
+    std::printf("[red sun 256x128] %zu bins of varying colour\n", checked);
+    EXPECT_GT(checked, 0u);
+}
+
 // The specular kernel is built per instruction set and chosen at run time:
 // every kernel this CPU runs agrees with the baseline (plain SSE2) within
 // float rounding, far inside the integration error, on single levels and
