@@ -80,7 +80,7 @@ public:
             const float radius = L_.nodes[L_.index(x, y)].radius;
             if (radius >= 0.0f && colour_varies(bins[x], radius, inv_omega)) {
                 chroma.emplace_back(x, ChromaBin{});
-                channel_moments(bins[x], radius, chroma.back().second);
+                L_.nodes[L_.index(x, y)].chroma_scores = channel_moments(bins[x], radius, chroma.back().second);
             }
         }
     }
@@ -140,7 +140,7 @@ private:
 #if defined(__GNUC__)
     __attribute__((noinline))
 #endif
-    void channel_moments(const Bin& b, double beta, ChromaBin& out) const {
+    uint32_t channel_moments(const Bin& b, double beta, ChromaBin& out) const {
         beta = std::max(beta, 1e-9);
         const double ib = 1.0 / beta, ib2 = 0.5 * ib * ib;
         const double psum = b.power[0] + b.power[1] + b.power[2];
@@ -148,23 +148,23 @@ private:
         for (int c = 0; c < 3; ++c) m += Vec3d{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
         m = m / psum;
         const double mm = dot(m, m), trace = 1.0 - mm;
-        out.cos_r = float(std::cos(beta));
-        out.sin_r = float(std::sin(beta));
+        uint32_t scores = 0;
         for (int c = 0; c < 3; ++c) {
             const double pc = b.power[c];
             const Vec3d vc{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
             const double vl = length(vc);
             ChromaChannel& ch = out.channel[c];
             ch = ChromaChannel{0, 0, 1, 0, 1};
-            out.score[c] = 0.0f;
             if (!(pc > 0.0) || !(vl > 0.0)) continue;  // no power: adds nothing
             const Vec3d mc = vc / pc, p = vc / vl, dv = mc - m;
             const double mcc = dot(mc, mc), d2 = dot(dv, dv);
-            out.score[c] = float(std::min(1.0, std::sqrt(d2) * ib + (std::fabs(mm - mcc) + d2) * ib2));
+            const double score = std::min(1.0, std::sqrt(d2) * ib + (std::fabs(mm - mcc) + d2) * ib2);
+            scores |= uint32_t(std::ceil(score * 1023.0)) << (10 * c);
             ch.px = float(p.x), ch.py = float(p.y), ch.pz = float(p.z);
             ch.g = float(std::max(0.0, 1.0 - vl / pc));
             ch.cov_scale = trace > 0.0 ? float((1.0 - mcc) / trace) : 1.0f;
         }
+        return scores;
     }
 
     BinLevel& L_;

@@ -474,23 +474,44 @@ struct Lobe {
     Cubemap* dst;
 };
 
-// The kernel's variation across n bins of varying colour seen from a
-// tile (chroma_pass): per lobe g, dk[g n + b] = inv_z (k(theta - beta) -
-// k(theta + beta)), theta = max(0, d - rho) the bin's distance to the
-// tile's nearest texel (d from the tile's centre c), beta the bin's radius,
-// k(c) = c / t^2 (t = (1 - c)(1 - a2) + 2 a2) for c > 0, else 0; angles by
-// their cosines and sines. geo: the bins' p (x, y, z), cos beta, sin beta,
-// n each. Built per instruction set without fused multiply-add: the same
-// bits, so the same bins chosen, on every CPU.
+// The estimates of chroma_pass for n bins of varying colour seen from a
+// tile, in lanes. Per lobe g, the kernel's variation across bin b,
+// dk = inv_z (k(theta - beta) - k(theta + beta)), theta = max(0, d - rho)
+// the bin's distance to the tile's nearest texel (d from the tile's centre
+// c), beta its radius, k(c) = c / t^2 (t = (1 - c)(1 - a2) + 2 a2) for
+// c > 0, else 0 (angles by their cosines and sines, those of beta by
+// series in beta / 2: under 3e-5 off up to beta = pi); per channel the
+// estimate e = score_c P_c dk, into est[(g 3 + c) n + b], and its largest
+// ratio to the limits over the lobes into key[c n + b]; the estimates
+// summed per lobe and channel in 16 fixed lanes into total. in: the bins'
+// p (x, y, z), beta, score (3), power (3), n each. Built per
+// instruction set without fused multiply-add and with the lanes fixed: the
+// same bits, so the same bins chosen, on every CPU.
+constexpr int kChromaIn = 10;
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
 #endif
-void kernel_variation(const float* geo, size_t n, float cx, float cy, float cz, float cr, float sr, int K,
-                      const float* a2, const float* inv_z, float* dk) {
-    const float *px = geo, *py = geo + n, *pz = geo + 2 * n, *cb = geo + 3 * n, *sb = geo + 4 * n;
+void chroma_estimates(const float* in, size_t n, float cx, float cy, float cz, float cr, float sr, int K,
+                      const float* a2, const float* inv_z, const float (*inv_limit)[3], float* est, float* key,
+                      double (*total)[3]) {
+    const float *px = in, *py = in + n, *pz = in + 2 * n, *beta = in + 3 * n;
+    const float* score = in + 4 * n;  // 3 n
+    const float* power = in + 7 * n;  // 3 n
+    for (size_t q = 0; q < 3 * n; ++q) key[q] = 0.0f;
+    thread_local std::vector<float> dkv, cbv, sbv;
+    dkv.resize(n), cbv.resize(n), sbv.resize(n);
+    float *dk = dkv.data(), *cb = cbv.data(), *sb = sbv.data();
+    for (size_t b = 0; b < n; ++b) {
+        // x = beta / 2 <= pi / 2: sin x and cos x by their series to x^9 and
+        // x^8, then cos beta = 1 - 2 sin^2 x, sin beta = 2 sin x cos x.
+        const float x = 0.5f * beta[b], x2 = x * x;
+        const float sx = x * (1.0f - x2 / 6.0f * (1.0f - x2 / 20.0f * (1.0f - x2 / 42.0f * (1.0f - x2 / 72.0f))));
+        const float cx2 = 1.0f - x2 / 2.0f * (1.0f - x2 / 12.0f * (1.0f - x2 / 30.0f * (1.0f - x2 / 56.0f)));
+        cb[b] = 1.0f - 2.0f * sx * sx;
+        sb[b] = 2.0f * sx * cx2;
+    }
     for (int g = 0; g < K; ++g) {
         const float s = 1.0f - a2[g], t2 = 2.0f * a2[g], iz = inv_z[g];
-        float* out = dk + size_t(g) * n;
         for (size_t b = 0; b < n; ++b) {
             const float cd = std::min(1.0f, cx * px[b] + cy * py[b] + cz * pz[b]);
             const float sd = std::sqrt(std::max(0.0f, 1.0f - cd * cd));
@@ -500,7 +521,31 @@ void kernel_variation(const float* geo, size_t n, float cx, float cy, float cz, 
             const float cf = ct * cb[b] - st * sb[b];
             const float tn = (1.0f - cn) * s + t2, tf = (1.0f - cf) * s + t2;
             const float kn = cn > 0.0f ? cn / (tn * tn) : 0.0f, kf = cf > 0.0f ? cf / (tf * tf) : 0.0f;
-            out[b] = (kn - kf) * iz;
+            dk[b] = (kn - kf) * iz;
+        }
+        for (int c = 0; c < 3; ++c) {
+            const float il = inv_limit[g][c];
+            const float *sc = score + size_t(c) * n, *pc = power + size_t(c) * n;
+            float* e = est + (size_t(g) * 3 + c) * n;
+            float* k = key + size_t(c) * n;
+            float lanes[16] = {};
+            size_t b = 0;
+            for (; b + 16 <= n; b += 16)
+                for (int l = 0; l < 16; ++l) {
+                    const float v = sc[b + l] * pc[b + l] * dk[b + l];
+                    e[b + l] = v;
+                    lanes[l] += v;
+                    k[b + l] = std::max(k[b + l], v * il);
+                }
+            for (; b < n; ++b) {
+                const float v = sc[b] * pc[b] * dk[b];
+                e[b] = v;
+                lanes[b % 16] += v;
+                k[b] = std::max(k[b], v * il);
+            }
+            double t = 0.0;
+            for (int l = 0; l < 16; ++l) t += lanes[l];
+            total[g][c] = t;
         }
     }
 }
@@ -513,15 +558,19 @@ void kernel_variation(const float* geo, size_t n, float cx, float cy, float cz, 
 // that (bin_tree.h's s_c: the first-order term k' n.d is dk/(2 beta) |d| at
 // most, the second-order one likewise). Bins' errors of one sign add up (a
 // sky's colour gradient puts every bin's blue above its red), so the
-// budget is per tile: while the estimates of the bins taken whole add up to
-// more than tol x the tile's least value in some channel (at least 0.05 x
-// the channel's mean, the metric's floor), the bin with the largest
-// estimate against that bound is taken as its channels instead: the
-// channels summed with their powers and the bin itself with its powers
-// negated, added to each texel. The bins are taken in buckets of the binary exponent of
-// that ratio, largest first (within a factor 2 of the largest-first order,
-// with no sort). tol 0: every bin of varying colour. Returns the number of
-// bins summed.
+// budget is per tile: while the estimates of the channels taken whole add
+// up to more than tol x the tile's least value in some channel (at least
+// 0.05 x the channel's mean, the metric's floor), the (bin, channel) pair
+// with the largest estimate against that bound is taken on its own
+// instead: the channel summed with its power and its own moments, the bin
+// with that channel's power negated, added to each texel. The pairs are
+// taken in buckets of the binary exponent of that ratio, largest first
+// (within a factor 2 of the largest-first order, with no sort). tol 0:
+// every channel of every bin of varying colour. Measured and refused:
+// sub-tiles of 4 x 4 texels with their own budgets (fewer bins, more time),
+// a cap on the pairs per tile, signs or quadrature for far or weak bins
+// (issue 25: each left a source over 1 %, or saved under 7 %).
+// Returns the number of bins summed per texel.
 size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const BinNode*>& chromatic,
                    const Lobe* lobes, int K, const float* a2, double tol, kernel::SumsFn sums) {
     double limit[kernel::kMaxLobes][3];
@@ -543,44 +592,25 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
             inv_limit[g][c] = float(1.0 / limit[g][c]);
         }
     }
-    // Each bin's kernel variation per lobe (in lanes), its estimates (K x
-    // 3), their totals, and the bins by their largest estimate against the
+    // Each bin's estimates per lobe and channel (in lanes), their totals,
+    // and the (bin, channel) pairs by their largest estimate against the
     // limits, in buckets of its binary exponent.
-    const size_t n = chromatic.size(), per_bin = size_t(K) * 3;
-    thread_local std::vector<float> geo, dk, est;
+    const size_t n = chromatic.size();
+    thread_local std::vector<float> in, est, key;
     thread_local std::vector<uint32_t> bucket_of, order;
-    geo.resize(5 * n);
-    dk.resize(size_t(K) * n);
-    est.resize(n * per_bin);
-    bucket_of.resize(n);
+    in.resize(kChromaIn * n);
+    est.resize(size_t(K) * 3 * n);
+    key.resize(3 * n);
     for (size_t b = 0; b < n; ++b) {
         const BinNode* nd = chromatic[b];
-        const ChromaBin& cb = tree.chroma[nd->chroma - 1];
-        geo[b] = nd->px, geo[n + b] = nd->py, geo[2 * n + b] = nd->pz;
-        geo[3 * n + b] = cb.cos_r, geo[4 * n + b] = cb.sin_r;
+        in[b] = nd->px, in[n + b] = nd->py, in[2 * n + b] = nd->pz, in[3 * n + b] = nd->radius;
+        for (int c = 0; c < 3; ++c) in[(4 + c) * n + b] = nd->chroma_score(c), in[(7 + c) * n + b] = nd->power[c];
     }
     float inv_z[kernel::kMaxLobes];
     for (int g = 0; g < K; ++g) inv_z[g] = float(lobes[g].inv_z);
-    kernel_variation(geo.data(), n, t.c.x, t.c.y, t.c.z, std::cos(t.rho), std::sin(t.rho), K, a2, inv_z, dk.data());
     double total[kernel::kMaxLobes][3] = {};
-    uint32_t count_in[256] = {};
-    for (size_t b = 0; b < n; ++b) {
-        const BinNode* nd = chromatic[b];
-        const ChromaBin& cb = tree.chroma[nd->chroma - 1];
-        float key = 0.0f;
-        float* e = est.data() + b * per_bin;
-        for (int g = 0; g < K; ++g)
-            for (int c = 0; c < 3; ++c) {
-                const float v = cb.score[c] * nd->power[c] * dk[size_t(g) * n + b];
-                e[3 * g + c] = v;
-                total[g][c] += v;
-                key = std::max(key, v * inv_limit[g][c]);
-            }
-        uint32_t bits;
-        std::memcpy(&bits, &key, sizeof(bits));
-        bucket_of[b] = key > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
-        ++count_in[bucket_of[b]];
-    }
+    chroma_estimates(in.data(), n, t.c.x, t.c.y, t.c.z, std::cos(t.rho), std::sin(t.rho), K, a2, inv_z, inv_limit,
+                     est.data(), key.data(), total);
     auto over = [&] {
         for (int g = 0; g < K; ++g)
             for (int c = 0; c < 3; ++c)
@@ -588,13 +618,30 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
         return false;
     };
     if (!over()) return 0;
-    // The bins by bucket, largest first (in order of index within one).
+    // The (bin, channel) pairs by bucket, largest first (in order of index within one).
+    uint32_t count_in[256] = {};
+    bucket_of.resize(3 * n);
+    for (size_t q = 0; q < 3 * n; ++q) {
+        uint32_t bits;
+        std::memcpy(&bits, &key[q], sizeof(bits));
+        bucket_of[q] = key[q] > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
+        ++count_in[bucket_of[q]];
+    }
     uint32_t start[256];
     uint32_t sum = 0;
     for (int k = 255; k >= 1; --k) start[k] = sum, sum += count_in[k];
     order.resize(sum);
-    for (size_t b = 0; b < n; ++b)
-        if (bucket_of[b]) order[start[bucket_of[b]]++] = uint32_t(b);
+    for (size_t q = 0; q < 3 * n; ++q)
+        if (bucket_of[q]) order[start[bucket_of[q]]++] = uint32_t(q);  // q = c n + b
+    thread_local std::vector<uint8_t> taken;  // per bin: its channels taken on their own (bits)
+    taken.assign(n, 0);
+    for (const uint32_t q : order) {
+        if (!over()) break;
+        const size_t b = q % n;
+        const int c = int(q / n);
+        for (int g = 0; g < K; ++g) total[g][c] -= est[(size_t(g) * 3 + c) * n + b];
+        taken[b] |= uint8_t(1u << c);
+    }
     thread_local std::vector<float> acc[kFields];
     for (auto& a : acc) a.clear();
     auto push = [&](const float* p, float g, const float* power, const float* cov, float cov_scale) {
@@ -603,22 +650,20 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
         for (int c = 0; c < 3; ++c) acc[kernel::kP0 + c].push_back(power[c]);
         for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k].push_back(cov[k] * cov_scale);
     };
-    for (const uint32_t b : order) {
-        if (!over()) break;
-        const float* e = est.data() + b * per_bin;
-        for (int g = 0; g < K; ++g)
-            for (int c = 0; c < 3; ++c) total[g][c] -= e[3 * g + c];
+    for (size_t b = 0; b < n; ++b) {
+        if (!taken[b]) continue;
         const BinNode* nd = chromatic[b];
         const ChromaBin& cb = tree.chroma[nd->chroma - 1];
         const float p[3] = {nd->px, nd->py, nd->pz};
-        const float minus[3] = {-nd->power[0], -nd->power[1], -nd->power[2]};
+        float minus[3];
+        for (int c = 0; c < 3; ++c) minus[c] = taken[b] >> c & 1u ? -nd->power[c] : 0.0f;
         push(p, nd->g, minus, nd->cov, 1.0f);
-        for (int k = 0; k < 3; ++k) {
-            if (!(nd->power[k] != 0.0f)) continue;
-            const ChromaChannel& ch = cb.channel[k];
+        for (int c = 0; c < 3; ++c) {
+            if (!(taken[b] >> c & 1u)) continue;
+            const ChromaChannel& ch = cb.channel[c];
             const float cp[3] = {ch.px, ch.py, ch.pz};
             float power[3] = {0, 0, 0};
-            power[k] = nd->power[k];
+            power[c] = nd->power[c];
             push(cp, ch.g, power, nd->cov, ch.cov_scale);
         }
     }

@@ -27,9 +27,12 @@ struct alignas(64) BinNode {
     // Angular radius about p: the largest angle from p to the bin's corners
     // and edge midpoints (radians); negative for a bin with no radiance.
     float radius;
-    // 0, or 1 + the index of this bin's ChromaBin in BinTree::chroma.
+    // 0, or 1 + the index of this bin's ChromaBin in BinTree::chroma, and
+    // then its scores min(1, s_c) (below), 10 bits each from bit 10 c,
+    // rounded up: chroma_score(c).
     uint32_t chroma;
-    float unused;
+    uint32_t chroma_scores;
+    float chroma_score(int c) const { return float(chroma_scores >> (10 * c) & 1023u) * (1.0f / 1023.0f); }
 };
 static_assert(sizeof(BinNode) == 64, "a bin is one cache line");
 
@@ -59,8 +62,6 @@ struct ChromaChannel {
     float cov_scale;      // C_c = cov_scale x BinNode::cov
 };
 struct ChromaBin {
-    float score[3];      // min(1, s_c) per channel
-    float cos_r, sin_r;  // of BinNode::radius
     ChromaChannel channel[3];
 };
 
