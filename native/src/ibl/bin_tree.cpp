@@ -19,8 +19,11 @@ namespace {
 // colour (kept per row until finish() numbers them).
 class LevelFiller {
 public:
-    LevelFiller(BinLevel& level, int w, int h, const double* channel_mean, double chroma_tolerance)
-        : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1), chroma_(h), tol_(chroma_tolerance) {
+    // chroma: the level's rows of BinTree::chroma, the first at row index first_row.
+    LevelFiller(BinLevel& level, int w, int h, const double* channel_mean, double chroma_tolerance,
+                std::vector<ChromaBin>* chroma, uint32_t first_row)
+        : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1), chroma_(chroma), first_row_(first_row),
+          tol_(chroma_tolerance) {
         L_.w = w;
         L_.h = h;
         L_.nodes.resize(size_t(w) * h);  // not zeroed here: row() writes every node whole
@@ -44,8 +47,6 @@ public:
             slat[r] = std::sin(lat);
         }
         const double inv_omega = w_ / (2.0 * kPi * (slat[2] - slat[0]));  // every bin of the row
-        std::vector<std::pair<int, ChromaBin>>& chroma = chroma_[y];
-        chroma.clear();
         for (int x = 0; x < w_; ++x) {
             BinNode& nd = L_.nodes[L_.index(x, y)];
             nd = BinNode{};
@@ -75,30 +76,20 @@ public:
             }
             nd.radius = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
         }
-        // Issue 25's test of every bin (bin_tree.h), apart from the loop above.
+        // Issue 25's test of every bin (bin_tree.h), apart from the loop above;
+        // the row's bins of varying colour counted first, then stored.
+        thread_local std::vector<int> varies;
+        varies.clear();
         for (int x = 0; x < w_; ++x) {
             const float radius = L_.nodes[L_.index(x, y)].radius;
-            if (radius >= 0.0f && colour_varies(bins[x], radius, inv_omega)) {
-                chroma.emplace_back(x, ChromaBin{});
-                L_.nodes[L_.index(x, y)].chroma_scores = channel_moments(bins[x], radius, chroma.back().second);
-            }
+            if (radius >= 0.0f && colour_varies(bins[x], radius, inv_omega)) varies.push_back(x);
         }
-    }
-
-    size_t chroma_count() const {
-        size_t n = 0;
-        for (const auto& r : chroma_) n += r.size();
-        return n;
-    }
-    // Numbers this level's bins of varying colour in row order, after those
-    // already in `out`, and appends them there.
-    void finish(std::vector<ChromaBin>& out) {
-        for (int y = 0; y < h_; ++y) {
-            for (const auto& [x, cb] : chroma_[y]) {
-                out.push_back(cb);
-                L_.nodes[L_.index(x, y)].chroma = uint32_t(out.size());
-            }
-            std::vector<std::pair<int, ChromaBin>>().swap(chroma_[y]);
+        std::vector<ChromaBin>& row = chroma_[y];
+        row.assign(varies.size(), ChromaBin{});
+        for (size_t k = 0; k < varies.size(); ++k) {
+            BinNode& nd = L_.nodes[L_.index(varies[k], y)];
+            nd.chroma = (first_row_ + uint32_t(y) + 1) << 12 | uint32_t(k);
+            nd.chroma_scores = channel_moments(bins[varies[k]], nd.radius, row[k]);
         }
     }
 
@@ -170,7 +161,8 @@ private:
     BinLevel& L_;
     int w_, h_;
     std::vector<double> cphi_, sphi_;
-    mutable std::vector<std::vector<std::pair<int, ChromaBin>>> chroma_;  // row y's, written by row(y) alone
+    std::vector<ChromaBin>* chroma_;  // row y's written by row(y) alone
+    uint32_t first_row_;
     double a_scale_[3];
     double tol_;
 };
@@ -205,10 +197,17 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
     for (int v = w; v >= 2; v /= 2) ++levels;
     tree.levels.reserve(levels);  // the fillers below hold references into it
     std::vector<Bin> bins;
-    std::vector<std::unique_ptr<LevelFiller>> fillers;  // every level's, numbered at the end
+    std::vector<std::unique_ptr<LevelFiller>> fillers;
+    // Every level's rows of bins of varying colour, level 0's first.
+    size_t rows = 0;
+    for (int v = w; v >= 2; v /= 2) rows += size_t(v / 2);
+    tree.chroma.resize(rows);
+    uint32_t first_row = 0;
     auto add_level = [&](int lw) {
         tree.levels.emplace_back();
-        fillers.push_back(std::make_unique<LevelFiller>(tree.levels.back(), lw, lw / 2, mean, tol));
+        fillers.push_back(std::make_unique<LevelFiller>(tree.levels.back(), lw, lw / 2, mean, tol,
+                                                        tree.chroma.data() + first_row, first_row));
+        first_row += uint32_t(lw / 2);
         return fillers.back().get();
     };
     if (w == 2) {
@@ -255,10 +254,6 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
         bins = std::move(coarser);
         w /= 2;
     }
-    size_t count = 0;
-    for (const auto& f : fillers) count += f->chroma_count();
-    tree.chroma.reserve(count);
-    for (const auto& f : fillers) f->finish(tree.chroma);
     return tree;
 }
 

@@ -653,7 +653,7 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
     for (size_t b = 0; b < n; ++b) {
         if (!taken[b]) continue;
         const BinNode* nd = chromatic[b];
-        const ChromaBin& cb = tree.chroma[nd->chroma - 1];
+        const ChromaBin& cb = tree.chroma_of(*nd);
         const float p[3] = {nd->px, nd->py, nd->pz};
         float minus[3];
         for (int c = 0; c < 3; ++c) minus[c] = taken[b] >> c & 1u ? -nd->power[c] : 0.0f;

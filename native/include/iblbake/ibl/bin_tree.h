@@ -27,9 +27,9 @@ struct alignas(64) BinNode {
     // Angular radius about p: the largest angle from p to the bin's corners
     // and edge midpoints (radians); negative for a bin with no radiance.
     float radius;
-    // 0, or 1 + the index of this bin's ChromaBin in BinTree::chroma, and
-    // then its scores min(1, s_c) (below), 10 bits each from bit 10 c,
-    // rounded up: chroma_score(c).
+    // 0, or where this bin's ChromaBin is (BinTree::chroma_of), and then
+    // its scores min(1, s_c) (below), 10 bits each from bit 10 c, rounded
+    // up: chroma_score(c).
     uint32_t chroma;
     uint32_t chroma_scores;
     float chroma_score(int c) const { return float(chroma_scores >> (10 * c) & 1023u) * (1.0f / 1023.0f); }
@@ -72,9 +72,18 @@ struct BinLevel {
 };
 
 struct BinTree {
-    std::vector<BinLevel> levels;   // [0] finest
-    std::vector<ChromaBin> chroma;  // the bins of varying colour (BinNode::chroma)
+    std::vector<BinLevel> levels;  // [0] finest
+    // The bins of varying colour, by row (every level's rows in turn), in
+    // order: a node's chroma is (1 + its row's index) << 12 | its index in
+    // the row (rows hold at most 4096 bins).
+    std::vector<std::vector<ChromaBin>> chroma;
     double channel_mean[3] = {0, 0, 0};
+    const ChromaBin& chroma_of(const BinNode& nd) const { return chroma[(nd.chroma >> 12) - 1][nd.chroma & 4095u]; }
+    size_t chroma_count() const {
+        size_t n = 0;
+        for (const auto& r : chroma) n += r.size();
+        return n;
+    }
 };
 
 struct BinTreeOptions {
