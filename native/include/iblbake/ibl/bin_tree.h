@@ -89,8 +89,8 @@ struct BinTree {
 struct BinTreeOptions {
     // Bins with max_c a_c s_c above this keep their channels' moments
     // (measured with HierarchicalQuality::chroma 0.01, issue 25: 0.04 left
-    // sunset.exr's red sun 1.2 % off in blue; 0.01 kept twice the bins of
-    // 0.02 for 0.4 % instead of 0.5 % there).
+    // sunset.exr 1.2 % off in blue; 0.01 kept 2.5x the bins of varying
+    // colour for 0.41 % instead of 0.67 % there).
     double chroma_tolerance = 0.02;
     // The image's mean radiance per channel (a_c's mean_c); null: computed.
     const double* channel_mean = nullptr;
