@@ -474,6 +474,25 @@ struct Lobe {
     Cubemap* dst;
 };
 
+// The sums over the bins in acc (padded to whole lanes here) at each texel
+// of the tile: out(i, j, num) with num[lobe][channel].
+template <typename Out>
+void sum_tile(const Tile& t, std::vector<float> (&acc)[kFields], int K, const float* a2, kernel::SumsFn sums,
+              Out out) {
+    const size_t padded = (acc[0].size() + kLanes - 1) / kLanes * kLanes;
+    for (auto& a : acc) a.resize(padded, 0.0f);
+    const float* fields[kFields];
+    for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
+    size_t k = 0;
+    for (int j = t.j0; j < t.j1; ++j)
+        for (int i = t.i0; i < t.i1; ++i, ++k) {
+            double num[kernel::kMaxLobes][3];
+            const Vec3& d = t.dirs[k];
+            sums(fields, padded, K, a2, d.x, d.y, d.z, num);
+            out(i, j, num);
+        }
+}
+
 // The estimates of chroma_pass for n bins of varying colour seen from a
 // tile, in lanes. Per lobe g, the kernel's variation across bin b,
 // dk = inv_z (k(theta - beta) - k(theta + beta)), theta = max(0, d - rho)
@@ -668,21 +687,12 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
         }
     }
     const size_t count = acc[0].size();
-    const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
-    for (auto& a : acc) a.resize(padded, 0.0f);
-    const float* fields[kFields];
-    for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
-    size_t k = 0;
-    for (int j = t.j0; j < t.j1; ++j)
-        for (int i = t.i0; i < t.i1; ++i, ++k) {
-            double num[kernel::kMaxLobes][3];
-            const Vec3& d = t.dirs[k];
-            sums(fields, padded, K, a2, d.x, d.y, d.z, num);
-            for (int g = 0; g < K; ++g) {
-                float* o = lobes[g].dst->at(t.face, i, j);
-                for (int ch = 0; ch < 3; ++ch) o[ch] = float(o[ch] + num[g][ch] * lobes[g].inv_z);
-            }
+    sum_tile(t, acc, K, a2, sums, [&](int i, int j, const double (*num)[3]) {
+        for (int g = 0; g < K; ++g) {
+            float* o = lobes[g].dst->at(t.face, i, j);
+            for (int ch = 0; ch < 3; ++ch) o[ch] = float(o[ch] + num[g][ch] * lobes[g].inv_z);
         }
+    });
     return count;
 }
 
@@ -756,20 +766,12 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
         thread_local std::vector<float> acc[kFields];
         thread_local std::vector<const BinNode*> chromatic;
         used[tile] = double(gather_bins(tree, t, scale, eps, horizon_radius, acc, chromatic));
-        const size_t padded = acc[0].size();
-        const float* fields[kFields];
-        for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
-        size_t k = 0;
-        for (int j = t.j0; j < t.j1; ++j)
-            for (int i = t.i0; i < t.i1; ++i, ++k) {
-                double num[kernel::kMaxLobes][3];
-                const Vec3& d = t.dirs[k];
-                sums(fields, padded, K, a2, d.x, d.y, d.z, num);
-                for (int g = 0; g < K; ++g) {
-                    float* o = targets[g].dst->at(t.face, i, j);
-                    for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[g][ch] * inv_z[g]);
-                }
+        sum_tile(t, acc, K, a2, sums, [&](int i, int j, const double (*num)[3]) {
+            for (int g = 0; g < K; ++g) {
+                float* o = targets[g].dst->at(t.face, i, j);
+                for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[g][ch] * inv_z[g]);
             }
+        });
         if (!chromatic.empty() && q.chroma >= 0.0)
             used[tile] += double(chroma_pass(tree, t, chromatic, lobes, K, a2, q.chroma, sums));
     });
