@@ -53,13 +53,14 @@ struct HierarchicalQuality {
     // worst texel only from 0.29 % to 0.22 % on sunset.exr; measured).
     double finest_eps = 0.5;
     double horizon = 0.05;     // bins that may straddle a texel's horizon: radius <= eps horizon / sqrt(D(45 deg) / Z)
-    // Bins of varying colour (bin_tree.h's ChromaBin) are taken channel by
-    // channel, largest estimated error first, while the errors
+    // Bins of varying colour (bin_tree.h's ChromaBin) have their channels
+    // taken on their own, largest estimated error first, while the errors
     // of those taken whole add up to more than this times a tile's least
     // value in some channel (at least 0.05 x the channel's mean, the
     // metric's floor); 0: every one, negative: none. 0.01: measured (issue
-    // 25, docs/benchmarks.md): every source within 0.77 % per channel; 0.02
-    // left the red sun at 1.6 % (r = 0.125), 0.005 cost 1.5x the extra bins.
+    // 25, docs/benchmarks.md): 11 sources within 0.86 % per channel; 0.02
+    // left the red sun at 1.6 % (r = 0.125), 0.005 cost 1.5x to 2x the
+    // extra bins.
     double chroma = 0.01;
 };
 
