@@ -4,10 +4,10 @@
 #include <cmath>
 #include <utility>
 
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/vec3.h"
+#include "iblbake/util/parallel.h"
 
 namespace iblbake::bench {
 

@@ -36,10 +36,10 @@
 
 #include "../tests/native/reference.h"
 #include "baselines.h"
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/cube.h"
+#include "iblbake/util/parallel.h"
 
 using namespace iblbake;
 

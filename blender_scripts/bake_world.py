@@ -31,20 +31,6 @@ class Parser(argparse.ArgumentParser):
         raise Usage(message)
 
 
-def positive(text):
-    v = int(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError("must be at least 1, got %s" % text)
-    return v
-
-
-def count(text):
-    v = int(text)
-    if v < 0:
-        raise argparse.ArgumentTypeError("must be 0 (automatic) or more, got %s" % text)
-    return v
-
-
 def finite(text):
     try:
         v = float(text)
@@ -55,27 +41,32 @@ def finite(text):
     return v
 
 
-# Options checked by the native module exactly as the CLI checks them, before
-# they reach Blender's properties (which would clamp them silently).
-NATIVE_CHECKED = (("face_size", "face_size"), ("irradiance_size", "irradiance_size"), ("mips", "mip_count"),
-                  ("lut_size", "lut_size"), ("exposure", "exposure"))
-
-
-def check_native_options(args):
+def addon_module(name):
+    """A module of the loaded add-on ("iblbake" or "bl_ext.<repo>.iblbake")."""
     import importlib
-    package = bpy.types.IBLBAKE_OT_bake.__module__.rsplit(".", 1)[0]  # "iblbake" or "bl_ext.<repo>.iblbake"
-    native = importlib.import_module(package + ".core.native")
-    settings = importlib.import_module(package + ".core.settings")
-    opts = {name: getattr(args, arg) for arg, name in NATIVE_CHECKED if getattr(args, arg) is not None}
-    try:
-        native.load().check_options(**opts)
-        s = settings.BakeSettings(out_dir=args.out)
-        for arg in ("render_width", "render_samples"):
-            if getattr(args, arg) is not None:
-                setattr(s, arg, getattr(args, arg))
-        s.validate()
-    except ValueError as e:
-        raise Usage(str(e))
+    return importlib.import_module(bpy.types.IBLBAKE_OT_bake.__module__.rsplit(".", 1)[0] + "." + name)
+
+
+def option_arg(row):
+    """argparse's type of a row of the options table (core/options.py): the
+    value checked as the add-on and the CLI check it, before it reaches a
+    Blender property (which would clamp it silently)."""
+    table = addon_module("core.options")
+
+    def convert(text):
+        try:
+            if row["kind"] == "int":
+                value = int(text)
+            elif row["kind"] == "float":
+                value = float(text)
+            elif row["kind"] == "list":
+                value = [n.strip() for n in text.split(",") if n.strip()]
+            else:
+                value = text
+            return table.check(row, value)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e))
+    return convert
 
 
 def parse_args(argv):
@@ -85,30 +76,42 @@ def parse_args(argv):
     src.add_argument("--hdri", help="bake this image as the world instead of the open file's world")
     src.add_argument("--batch", nargs="+", metavar="FILE", help=".blend files and/or images, one bake each")
     p.add_argument("--scene", help="scene to bake (default: the active one)")
-    p.add_argument("--face-size", type=positive, help="specular mip 0 face size (default 256)")
-    p.add_argument("--irradiance-size", type=positive, help="irradiance face size (default 32)")
-    p.add_argument("--mips", type=count, help="specular levels (default 0: full chain)")
-    p.add_argument("--lut-size", type=positive, help="BRDF LUT size (default 512)")
-    p.add_argument("--lut-model", choices=["karis", "height-correlated", "multiscatter"])
-    p.add_argument("--format", default=None, help="exr, png or exr,png (default exr)")
-    p.add_argument("--png-encoding", choices=["srgb", "rgbm"])
-    p.add_argument("--exposure", type=finite, help="PNG exposure in stops")
-    p.add_argument("--render-width", type=positive, help="Cycles lat-long width for procedural worlds (default 1024)")
-    p.add_argument("--render-samples", type=positive, help="Cycles samples for procedural worlds (default 16)")
     p.add_argument("--strength", type=finite, default=1.0, help="--hdri/--batch images: Background Strength")
     p.add_argument("--rotation-z", type=finite, default=0.0, help="--hdri/--batch images: Mapping rotation, degrees")
-    p.add_argument("--no-irradiance", action="store_true")
-    p.add_argument("--no-specular", action="store_true")
-    p.add_argument("--no-lut", action="store_true")
     p.add_argument("--no-auto-skip", action="store_true", help="bake everything, whatever the materials use")
     p.add_argument("--force", action="store_true", help="bake even when nothing changed since the last bake")
-    p.add_argument("--preset", action="append", metavar="NAME",
-                   help="engine preset, written into OUT/NAME (repeat or comma-separate): three, khronos, bevy, "
-                        "filament, babylon, unity, source; NAME:FORMAT picks a pixel format (docs/export.md). "
-                        "Replaces the presets chosen in the scene")
+    # Every option of the table (core/options.py), as the CLI spells it.
+    table = addon_module("core.options")
+    for row in table.rows():
+        flag, name = table.cli_flag(row), row["name"]
+        if row["kind"] == "bool":
+            off = row["default"] and flag.startswith("--no-")
+            text = row["help"][len("also "):] if row["help"].startswith("also ") else row["help"]
+            p.add_argument(flag, dest=name, action="store_const", const=not row["default"],
+                           help=("do not " + text) if off else row["help"])
+            continue
+        extra = {}
+        if row["kind"] == "list":
+            extra = dict(action="append", metavar="NAME")  # repeat or comma-separate
+        elif row.get("choices"):
+            extra = dict(metavar="|".join(c["value"] for c in row["choices"]))
+        default = ",".join(row["default"]) if isinstance(row["default"], list) else str(row["default"])
+        names = ": " + ", ".join(c["value"] for c in row["choices"]) if row["kind"] == "list" else ""
+        p.add_argument(flag, dest=name, type=option_arg(row),
+                       help="%s%s (default %s)" % (row["help"], names, default or "none"), **extra)
     args = p.parse_args(argv)
-    if args.preset is not None:
-        args.preset = [n.strip() for item in args.preset for n in item.split(",") if n.strip()]
+    for row in table.rows():  # a list given several times: one list
+        value = getattr(args, row["name"])
+        if row["kind"] == "list" and value is not None:
+            setattr(args, row["name"], [n for item in value for n in item])
+    try:  # what ties options together (an empty --format), checked as the add-on checks it
+        settings = addon_module("core.settings").BakeSettings(out_dir=args.out)
+        for row in table.rows():
+            if getattr(args, row["name"]) is not None and row["name"] != "presets":
+                setattr(settings, row["name"], getattr(args, row["name"]))
+        settings.validate()
+    except ValueError as e:
+        raise Usage(str(e))
     return args
 
 
@@ -153,21 +156,11 @@ def hdri_world(path: str, strength: float, rotation_z: float):
 def configure(scene, args, out_dir: str, image_only: bool):
     props = scene.iblbake
     props.use_scene_options = True
-    for arg, name in (("face_size", "face_size"), ("irradiance_size", "irradiance_size"), ("mips", "mip_count"),
-                      ("lut_size", "lut_size"), ("lut_model", "lut_model"), ("png_encoding", "png_encoding"),
-                      ("exposure", "exposure"), ("render_width", "render_width"),
-                      ("render_samples", "render_samples")):
-        value = getattr(args, arg)
-        if value is not None:
-            setattr(props, name, value)
-    if args.format is not None:
-        formats = {f.strip() for f in args.format.split(",") if f.strip()}
-        if not formats or formats - {"exr", "png"}:
-            raise RuntimeError("--format takes exr, png or exr,png")
-        props.write_exr, props.write_png = "exr" in formats, "png" in formats
-    props.bake_irradiance = not args.no_irradiance
-    props.bake_specular = not args.no_specular
-    props.bake_lut = not args.no_lut
+    for row in addon_module("core.options").rows():
+        value = getattr(args, row["name"])
+        if value is None or row["name"] == "presets":  # presets: the operator's override below
+            continue
+        setattr(props, row["name"], set(value) if row["kind"] == "list" else value)
     # An image alone has no materials to inspect: bake everything.
     props.auto_skip = not (args.no_auto_skip or image_only)
     props.force = args.force
@@ -181,7 +174,7 @@ def bake_scene(args, out_dir: str, image=None):
     if image is not None:
         scene.world = hdri_world(image, args.strength, args.rotation_z)
     configure(scene, args, out_dir, image is not None)
-    override = {} if args.preset is None else {"override_presets": True, "presets": ",".join(args.preset)}
+    override = {} if args.presets is None else {"override_presets": True, "presets": ",".join(args.presets)}
     with bpy.context.temp_override(scene=scene):
         result = bpy.ops.iblbake.bake(**override)
     if "FINISHED" not in result:
@@ -203,9 +196,9 @@ def batch_folders(items, out):
 
 
 def main(argv):
-    args = parse_args(argv)
     load_addon()
-    check_native_options(args)
+    args = parse_args(argv)
+    args.out = os.path.expanduser(args.out)  # a quoted '~/x' is the user's folder, as the shell would have made it
     failures = []
     if args.batch:
         for item, out in batch_folders(args.batch, args.out):

@@ -1,7 +1,7 @@
 """iblbake: bake a world's image-based lighting (irradiance, GGX prefiltered
 specular, BRDF LUT) from World Properties or `blender -b`. This file only
-registers; see operators.py, panel.py, preferences.py, properties.py and the
-bpy-free core/ package."""
+registers; see operators.py, outputs.py, panel.py, preferences.py,
+properties.py, scene_settings.py and the bpy-free core/ package."""
 
 bl_info = {
     "name": "iblbake",
@@ -22,20 +22,6 @@ try:
 except ImportError:  # iblbake.core used outside Blender (tests, pipelines): nothing to register
     bpy = None
 
-if bpy is not None:
-    if "operators" in locals():  # F8 / script reload: re-import the submodules
-        import importlib
-        for _m in (core.settings, core.needs, core.world, core.native, core.pipeline, core.job,  # noqa: F821
-                   core.describe, compat, state, properties, preferences, world_reader, scene_needs,  # noqa: F821
-                   operators, panel):  # noqa: F821
-            importlib.reload(_m)
-    from . import core  # noqa: F401
-    from .core import describe  # noqa: F401
-    from . import compat, state, operators, panel, preferences, properties, scene_needs, world_reader  # noqa: F401
-
-    _CLASSES = properties.classes + preferences.classes + operators.classes + panel.classes
-    _HANDLERS = operators.HANDLERS + panel.HANDLERS
-
 
 def python_mismatch(folder=os.path.dirname(os.path.abspath(__file__)), cache_tag=sys.implementation.cache_tag):
     """Why this package's compiled module cannot load in this Python, or "".
@@ -55,10 +41,29 @@ def python_mismatch(folder=os.path.dirname(os.path.abspath(__file__)), cache_tag
             % (built, running, running))
 
 
+# The submodules need the compiled module (the options table comes from it):
+# a module built for another Python is refused in register(), in words.
+_MISMATCH = python_mismatch() if bpy is not None else ""
+if bpy is not None and not _MISMATCH:
+    if "operators" in locals():  # F8 / script reload: re-import the submodules
+        import importlib
+        # Each module after the ones it imports, so that it binds their new versions.
+        for _m in (core.native, core.names, core.options, core.settings, core.needs, core.world, core.describe,  # noqa: F821
+                   core.pipeline, core.job, compat, state, properties, world_reader, scene_needs, scene_settings,  # noqa: F821
+                   operators, outputs, panel, preferences):  # noqa: F821
+            importlib.reload(_m)
+    from . import core  # noqa: F401
+    from .core import describe  # noqa: F401
+    from . import (compat, state, operators, outputs, panel, preferences, properties, scene_needs,  # noqa: F401
+                   scene_settings, world_reader)
+
+    _CLASSES = properties.classes + preferences.classes + operators.classes + outputs.classes + panel.classes
+    _HANDLERS = operators.HANDLERS + panel.HANDLERS
+
+
 def register():
-    why = python_mismatch()
-    if why:  # refuse before registering anything: Blender shows this and leaves the add-on off
-        raise RuntimeError("iblbake: " + why)
+    if _MISMATCH:  # refuse before registering anything: Blender shows this and leaves the add-on off
+        raise RuntimeError("iblbake: " + _MISMATCH)
     for cls in _CLASSES:
         bpy.utils.register_class(cls)
     properties.register_props()
@@ -67,6 +72,8 @@ def register():
 
 
 def unregister():
+    if _MISMATCH:
+        return
     for handlers, fn in reversed(_HANDLERS):
         if fn in handlers:
             handlers.remove(fn)

@@ -1,12 +1,17 @@
 """World Properties > Image-Based Lighting: how the world is read, where the
-files go, what will be baked (in words), the button - or, while a bake runs,
-its progress bar with a Cancel button - and the last bake's files and preview."""
+files go, what will be baked (in words), the options (whose rows the add-on
+preferences draw too), the button - or, while a bake runs, its progress bar
+with a Cancel button - and the last bake's files and preview."""
 import bpy
 from bpy.app.handlers import persistent
 
-from . import operators, preferences, state, world_reader
+from . import operators, outputs, state, world_reader
 from .core import describe
 from .core.world import COLOR, IMAGE
+from .core import options
+from .properties import ENGINE_ITEMS, ROWS
+from .scene_settings import (addon_preferences, engine_names, gather_settings, options_of, output_template,
+                             scene_needs_for)
 
 
 def _world_line(scene):
@@ -37,17 +42,12 @@ def _forget_needs(*_args):
     _needs_cache.clear()
 
 
-def _options(context, scene):
-    prefs = preferences.get(context)
-    return scene.iblbake if (scene.iblbake.use_scene_options or prefs is None) else prefs
-
-
 def _plan_lines(context, scene):
     """(sentences about what is baked, resolved folder or None, folder error)."""
     props = scene.iblbake
-    opts = _options(context, scene)
+    opts = options_of(context, scene)
     key = (scene.name, props.use_scene_options, opts.face_size, opts.mip_count, props.output_dir, props.auto_skip,
-           tuple(operators.engine_names(opts)), bpy.data.filepath, scene.world.name if scene.world else None)
+           tuple(engine_names(opts)), bpy.data.filepath, scene.world.name if scene.world else None)
     if key not in _needs_cache:
         _needs_cache[key] = _compute_plan_lines(context, scene)
     return _needs_cache[key]
@@ -57,15 +57,15 @@ def _compute_plan_lines(context, scene):
     from .core.settings import BakeSettings
     folder, folder_error = None, ""
     try:
-        settings = operators.gather_settings(context, scene)
+        settings = gather_settings(context, scene)
         folder = settings.out_dir
     except Exception as e:  # e.g. a //folder in an unsaved file: the panel says so
         settings = BakeSettings()
-        opts = _options(context, scene)
+        opts = options_of(context, scene)
         settings.face_size, settings.mip_count = opts.face_size, opts.mip_count
-        settings.presets = operators.engine_names(opts)
+        settings.presets = engine_names(opts)
         folder_error = str(e)
-    needs = operators.scene_needs_for(scene, settings) if scene.iblbake.auto_skip else None
+    needs = scene_needs_for(scene, settings) if scene.iblbake.auto_skip else None
     from .core.needs import Needs
     lines = describe.needs_sentences(needs or Needs(), settings.resolved_mip_count(), scene.iblbake.auto_skip,
                                      tuple(settings.presets))
@@ -100,6 +100,11 @@ def _draw_last(layout, context, last):
         col = layout.column(align=True)
         for i, line in enumerate(_wrap(last.status, _max_chars(context))):
             col.label(text=line, icon=STATUS_ICONS.get(last.kind, "INFO") if i == 0 else "BLANK1")
+    sun_line = describe.sun_sentence(last.sun)
+    if sun_line:
+        layout.label(text=sun_line, icon="LIGHT_SUN")
+        if last.sun.get("found"):
+            layout.operator(outputs.IBLBAKE_OT_add_sun_lamp.bl_idname, icon="LIGHT_SUN")
     if last.files:
         box = layout.box()
         col = box.column(align=True)
@@ -116,7 +121,7 @@ def _draw_last(layout, context, last):
             scale = context.preferences.view.ui_scale
             width = context.region.width if context.region else 300
             box.template_icon(icon_value=icon, scale=max(4.0, min(width - 40 * scale, 256 * scale) / (20.0 * scale)))
-        box.operator(operators.IBLBAKE_OT_open_preview.bl_idname, icon="IMAGE_DATA")
+        box.operator(outputs.IBLBAKE_OT_open_preview.bl_idname, icon="IMAGE_DATA")
 
 
 # The preview sheet's thumbnail (made by the bake's worker thread) as a custom
@@ -163,6 +168,44 @@ def _wrap(text, width):
     return [describe.shorten_middle(ln, width) for ln in lines] or [""]
 
 
+def draw_engines(layout, props):
+    """The engine presets as toggles (several may be ticked)."""
+    if not ENGINE_ITEMS:
+        return
+    col = layout.column(align=True)
+    col.label(text="Also Export For")
+    for start in range(0, len(ENGINE_ITEMS), 4):
+        row = col.row(align=True)
+        for name, label, _desc, _bit in ENGINE_ITEMS[start:start + 4]:
+            row.prop_enum(props, "presets", name, text=label)
+
+
+def draw_options(layout, props, engines=True):
+    """The shared options, as the World panel and the preferences show them:
+    a row per option of the table (core/options.py), in its order; numbers
+    next to each other share a column, a list is a row of toggles, and an
+    option another one makes moot (PNG's encoding without PNG) is hidden."""
+    if engines:
+        draw_engines(layout, props)
+    col = None
+    for row in ROWS:
+        name = row["name"]
+        if name in options.SCENE_OUTPUTS or name == "presets":
+            continue  # the scene's outputs and the engines have their own rows
+        need = options.REQUIRES.get(name)
+        if need and need[1] not in getattr(props, need[0]):
+            continue
+        if row["kind"] in ("int", "float"):
+            col = col or layout.column(align=True)
+            col.prop(props, name)
+            continue
+        col = None
+        if row["kind"] == "list":
+            layout.row(heading=row["label"]).prop(props, name, expand=True)
+        else:
+            layout.prop(props, name)
+
+
 class IBLBAKE_PT_world(bpy.types.Panel):
     bl_label = "Image-Based Lighting"
     bl_idname = "IBLBAKE_PT_world"
@@ -189,7 +232,7 @@ class IBLBAKE_PT_world(bpy.types.Panel):
         col = layout.column(align=True)
         col.label(text="Output Folder")
         try:  # Blender 4.1+: the folder used while the field is empty, greyed inside it
-            col.prop(props, "output_dir", text="", placeholder=operators.output_template(context, scene))
+            col.prop(props, "output_dir", text="", placeholder=output_template(context, scene))
         except TypeError:
             col.prop(props, "output_dir", text="")
         if folder:
@@ -206,16 +249,19 @@ class IBLBAKE_PT_world(bpy.types.Panel):
             for i, part in enumerate(_wrap(line, width - 2)):
                 col.label(text=part, icon="INFO" if i == 0 else "BLANK1")
         row = box.row(align=True)
-        row.prop(props, "bake_irradiance", toggle=True)
-        row.prop(props, "bake_specular", toggle=True)
-        row.prop(props, "bake_lut", toggle=True)
-        preferences.draw_engines(box, _options(context, scene))
+        for name in options.SCENE_OUTPUTS:
+            if name != "sun":
+                row.prop(props, name, toggle=True)
+        row = box.row(align=True)  # the sun as a light (issue 27): Off | Split
+        row.label(text="Sun")
+        row.prop(props, "sun", expand=True)
+        draw_engines(box, options_of(context, scene))
 
         layout.prop(props, "use_scene_options")
-        if props.use_scene_options or preferences.get(context) is None:
+        if props.use_scene_options or addon_preferences(context) is None:
             sub = layout.column()
             sub.use_property_split = True
-            preferences.draw_options(sub, props, engines=False)
+            draw_options(sub, props, engines=False)
         layout.prop(props, "force")
 
         if state.RUN is not None:
@@ -224,7 +270,7 @@ class IBLBAKE_PT_world(bpy.types.Panel):
             row = layout.row(align=True)
             row.scale_y = 1.4
             row.operator(operators.IBLBAKE_OT_bake.bl_idname, icon="WORLD")
-            row.operator(operators.IBLBAKE_OT_open_output.bl_idname, text="", icon="FILEBROWSER")
+            row.operator(outputs.IBLBAKE_OT_open_output.bl_idname, text="", icon="FILEBROWSER")
         _draw_last(layout, context, state.last(scene.name))
 
 

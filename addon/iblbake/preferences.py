@@ -1,10 +1,11 @@
-"""Add-on preferences: the default output folder and the option defaults."""
+"""Add-on preferences: the default output folder and the option defaults
+(their rows drawn as the World panel draws the scene's own)."""
 import bpy
 from bpy.props import StringProperty
 
-from .properties import ENGINE_ITEMS, BakeOptionProps
-
-ADDON_ID = __package__  # "iblbake", or "bl_ext.<repo>.iblbake" as a 4.2+ extension
+from . import panel
+from .properties import BakeOptionProps
+from .scene_settings import ADDON_ID
 
 
 class IBLBAKE_AddonPreferences(BakeOptionProps, bpy.types.AddonPreferences):
@@ -24,55 +25,7 @@ class IBLBAKE_AddonPreferences(BakeOptionProps, bpy.types.AddonPreferences):
         layout.use_property_split = True
         layout.prop(self, "default_output_dir")
         layout.prop(self, "lut_cache_dir")
-        draw_options(layout, self)
-
-
-def engine_ids():
-    """The engine presets' names, in the table's order."""
-    return [item[0] for item in ENGINE_ITEMS]
-
-
-def draw_engines(layout, props):
-    """The engine presets as toggles (several may be ticked)."""
-    if not ENGINE_ITEMS:
-        return
-    col = layout.column(align=True)
-    col.label(text="Also Export For")
-    for start in range(0, len(ENGINE_ITEMS), 4):
-        row = col.row(align=True)
-        for name, label, _desc, _bit in ENGINE_ITEMS[start:start + 4]:
-            row.prop_enum(props, "engines", name, text=label)
-
-
-def draw_options(layout, props, engines=True):
-    """The shared options, as the preferences and the World panel show them."""
-    if engines:
-        draw_engines(layout, props)
-    col = layout.column(align=True)
-    col.prop(props, "face_size")
-    col.prop(props, "mip_count")
-    col.prop(props, "irradiance_size")
-    col = layout.column(align=True)
-    col.prop(props, "lut_size")
-    col.prop(props, "lut_model")
-    row = layout.row(heading="Formats")
-    row.prop(props, "write_exr")
-    row.prop(props, "write_png")
-    row.prop(props, "write_preview")
-    if props.write_png:
-        layout.prop(props, "png_encoding")
-        layout.prop(props, "exposure")
-    col = layout.column(align=True)
-    col.prop(props, "render_width")
-    col.prop(props, "render_samples")
-
-
-def get(context=None):
-    """The preferences, or None when the add-on is not enabled as such
-    (imported by a script instead): callers fall back to the defaults."""
-    context = context or bpy.context
-    addon = context.preferences.addons.get(ADDON_ID)
-    return addon.preferences if addon else None
+        panel.draw_options(layout, self)
 
 
 classes = (IBLBAKE_AddonPreferences,)

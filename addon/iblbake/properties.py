@@ -1,37 +1,49 @@
 """Per-scene settings (the World panel) and the options they share with the
-add-on preferences (one mixin, so a default lives in one place: core.settings)."""
+add-on preferences (one mixin). Every option's property is made from its row
+of the options table (core/options.py: the native table and the add-on's own
+rows), so its name, label, default, range and help live in one place."""
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 
 from . import state
-from .core import native
-from .core import settings as S
+from .core import options
 
 
-def engine_items():
-    """The engine presets as enum items, from the native table (iblbake_core.presets():
-    a list of dicts with name, description, ...); none when the module has no presets."""
-    try:
-        table = native.load().presets()
-    except (ImportError, AttributeError):
-        return []
-    items = []
-    for i, p in enumerate(table):
-        name = str(p["name"])
-        first = str(p.get("description", "")).split(" ")[0].strip(",;:")
-        label = first if first.lower().startswith(name.lower()) else name.capitalize()  # "three.js", "Khronos"
-        items.append((name, label, str(p.get("description", "")), 1 << i))
-    return items
+def _items(row):
+    """A choice or list row's values as EnumProperty items (ENUM_FLAG bits for a list)."""
+    flag = row["kind"] == "list"
+    return [(c["value"], c["label"], c["help"] or c["label"], 1 << i) if flag else (c["value"], c["label"], c["help"] or c["label"])
+            for i, c in enumerate(row.get("choices") or [])]
 
 
-ENGINE_ITEMS = engine_items()
+def make_property(row, update=None):
+    """The bpy property of one row of the options table (core/options.py)."""
+    kind, extra = row["kind"], {"update": update} if update else {}
+    common = dict(name=row["label"], description=row["help"][:1].upper() + row["help"][1:], **extra)
+    if kind == "int":
+        return IntProperty(default=row["default"], min=int(row.get("min", -2 ** 31)), max=int(row.get("max", 2 ** 31 - 1)),
+                           **common)
+    if kind == "float":
+        lo, hi = row.get("min"), row.get("max")
+        return FloatProperty(default=row["default"], min=-1e30 if lo is None else lo, max=1e30 if hi is None else hi,
+                             **common)
+    if kind == "bool":
+        return BoolProperty(default=row["default"], **common)
+    if kind == "choice":
+        return EnumProperty(items=_items(row), default=row["default"], **common)
+    return EnumProperty(items=_items(row), options={"ENUM_FLAG"}, default=set(row["default"]), **common)
 
-LUT_MODEL_ITEMS = [
-    ("karis", "Karis (UE4)", "GGX, Smith-Schlick k = alpha/2: the seeds' and UE4's LUT"),
-    ("height-correlated", "Height-correlated", "GGX with height-correlated Smith visibility"),
-    ("multiscatter", "Multiple scattering", "Height-correlated, written for Turquin's energy compensation"),
-]
-PNG_ITEMS = [("srgb", "sRGB 8-bit", "Clamped, exposure applied"), ("rgbm", "RGBM", "Shared multiplier in alpha")]
+
+def option_row(name):
+    for row in ROWS:
+        if row["name"] == name:
+            return row
+    raise KeyError(name)
+
+
+ROWS = options.rows()
+# The engine presets ticked in the panel: (name, label, description, bit) from the native table.
+ENGINE_ITEMS = _items(option_row("presets"))
 
 
 BAKE_FOR_ITEMS = [
@@ -43,36 +55,19 @@ BAKE_FOR_ITEMS = [
 
 
 class BakeOptionProps:
-    """The options a bake takes; shared by the preferences and the scene."""
-    face_size: IntProperty(name="Specular Size", default=S.FACE_SIZE, min=1, max=4096,
-                           description="Face size of specular mip 0")
-    irradiance_size: IntProperty(name="Irradiance Size", default=S.IRRADIANCE_SIZE, min=1, max=4096,
-                                 description="Face size of the irradiance cube")
-    mip_count: IntProperty(name="Mip Levels", default=S.MIP_COUNT, min=0, max=20,
-                           description="Specular mip levels (0: the full chain down to 1x1)")
-    lut_size: IntProperty(name="LUT Size", default=S.LUT_SIZE, min=1, max=4096, description="BRDF LUT size")
-    lut_model: EnumProperty(name="LUT Model", items=LUT_MODEL_ITEMS, default="karis")
-    write_exr: BoolProperty(name="EXR", default=True, description="Write EXR files (half float crosses)")
-    write_png: BoolProperty(name="PNG", default=False, description="Write PNG files too")
-    png_encoding: EnumProperty(name="PNG Encoding", items=PNG_ITEMS, default="srgb")
-    exposure: FloatProperty(name="PNG Exposure", default=0.0, min=-64, max=64, description="Stops, PNG only")
-    render_width: IntProperty(name="Render Width", default=S.RENDER_WIDTH, min=16, max=16384,
-                              description="Worlds that are not an image or a plain color are rendered by Cycles "
-                                          "to a lat-long of this width (height is half)")
-    render_samples: IntProperty(name="Render Samples", default=S.RENDER_SAMPLES, min=1, max=4096,
-                                description="Cycles samples per pixel for that render (denoising is off)")
-    write_preview: BoolProperty(name="Preview Sheet", default=True,
-                                description="Also write preview.png: the irradiance, every specular level, the LUT "
-                                            "and spheres lit by the bake, to look at")
-    if ENGINE_ITEMS:
-        engines: EnumProperty(
-            name="Engines", items=ENGINE_ITEMS, options={"ENUM_FLAG"}, default=set(),
-            update=lambda self, context: _engines_changed(self, context),
-            description="Also export for these engines (their containers, mirrors and roughness per level); "
-                        "several may be ticked")
+    """The options a bake takes (every row of core/options.py but the
+    scene's outputs); shared by the preferences and the scene. The
+    annotations are made from the table below."""
+
+
+BakeOptionProps.__annotations__ = {
+    row["name"]: make_property(row, update=(lambda self, context: _engines_changed(self, context))
+                               if row["name"] == "presets" else None)
+    for row in ROWS if row["name"] not in options.SCENE_OUTPUTS}
 
 
 class IBLBAKE_SceneSettings(BakeOptionProps, bpy.types.PropertyGroup):
+    # What to bake (irradiance, specular, lut): the scene's own, from the table.
     use_scene_options: BoolProperty(
         name="Scene Options", default=False,
         description="Use this scene's options below instead of the add-on preferences' defaults")
@@ -80,9 +75,6 @@ class IBLBAKE_SceneSettings(BakeOptionProps, bpy.types.PropertyGroup):
         name="Output Folder", subtype="DIR_PATH", default="",
         description="Where the bake goes (empty: the preferences' default folder). "
                     "{blend}, {scene} and {world} are replaced; // is the .blend file's folder")
-    bake_irradiance: BoolProperty(name="Irradiance", default=True, description="Bake the diffuse irradiance cube")
-    bake_specular: BoolProperty(name="Specular", default=True, description="Bake the prefiltered specular chain")
-    bake_lut: BoolProperty(name="BRDF LUT", default=True, description="Bake (or reuse) the split-sum LUT")
     auto_skip: BoolProperty(
         name="Skip Unused", default=False,
         description="Bake only what the visible objects' materials read: no irradiance without diffuse materials, "
@@ -99,10 +91,14 @@ class IBLBAKE_SceneSettings(BakeOptionProps, bpy.types.PropertyGroup):
     last_output: StringProperty(name="Last Output", get=lambda self: state.last(self.id_data.name).out_dir)
 
 
+IBLBAKE_SceneSettings.__annotations__.update(
+    {row["name"]: make_property(row) for row in ROWS if row["name"] in options.SCENE_OUTPUTS})
+
+
 def _engines_changed(props, context):
     """Ticking an engine means export: bake every roughness (the scene's own
     setting when the scene's options are in use, else the active scene's)."""
-    if not props.engines:
+    if not props.presets:
         return
     scene = props.id_data if isinstance(props.id_data, bpy.types.Scene) else getattr(context, "scene", None)
     if scene is not None and scene.iblbake.auto_skip:

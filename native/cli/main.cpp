@@ -1,4 +1,5 @@
-// iblbake CLI: parses arguments and calls bake_file(). No integration here.
+// iblbake CLI: parses arguments, makes the plan and calls bake_file(). No
+// integration here.
 #include <CLI/CLI.hpp>
 
 #include <unistd.h>
@@ -16,9 +17,10 @@
 #include <string>
 #include <vector>
 
-#include "iblbake/bake/bake_file.h"
 #include "iblbake/export/export.h"
 #include "iblbake/io/text.h"
+#include "iblbake/pipeline/bake_file.h"
+#include "iblbake/pipeline/options.h"
 
 namespace {
 // The presets table (docs/export.md), one block per preset.
@@ -64,6 +66,38 @@ extern "C" void request_stop(int sig) {
         ::_exit(128 + sig);
     }
 }
+
+// One line naming every exported file whose texels were clamped to its
+// pixel format's range (the manifest counts them per file); none when none were.
+// A list option's texts: each split at its commas, empty names kept (and
+// refused by the table's check); the presets' texts as given (parse_presets
+// splits them and refuses empty names itself).
+std::vector<std::string> split_lists(const iblbake::OptionSpec& spec, const std::vector<std::string>& texts) {
+    if (spec.open_choices) return texts;
+    std::vector<std::string> out;
+    for (const std::string& t : texts) {
+        const iblbake::OptionValue v = iblbake::parse_option_text(spec, t);
+        for (const std::string& item : std::get<std::vector<std::string>>(v)) out.push_back(item);
+    }
+    return out;
+}
+
+std::vector<std::string> clamp_notes(const nlohmann::json& m) {
+    std::string files;
+    uint64_t total = 0;
+    if (m.contains("presets"))
+        for (const auto& [name, entry] : m["presets"].items())
+            for (const auto& w : entry.value("written", nlohmann::json::array()))
+                if (w.value("clamped_texels", uint64_t(0)) > 0) {
+                    const uint64_t n = w["clamped_texels"].get<uint64_t>();
+                    total += n;
+                    files += (files.empty() ? "" : ", ") + name + "/" + w["file"].get<std::string>() + " (" +
+                             std::to_string(n) + ")";
+                }
+    if (!total) return {};
+    return {std::to_string(total) + " texels brighter than their pixel format holds were clamped to its largest "
+            "value: " + files + " (the manifest's clamped_texels)"};
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -75,61 +109,46 @@ int main(int argc, char** argv) {
     app.add_flag("--list-presets", list_presets, "print the engine presets and exit");
     app.require_subcommand(0, 1);
 
-    BakeOptions bo;
-    WriteOptions wo;
-    std::string source, outdir, model = "karis", encoding = "srgb", method = "hierarchical";
-    std::vector<std::string> formats = {"exr"}, presets;
-    std::string layout = "hcross";
-    int samples = 0;
-    bool no_irr = false, no_spec = false, no_lut = false, quiet = false, no_cache = false;
+    std::string source, outdir;
+    bool quiet = false, no_cache = false;
     std::string cache_dir = FileLutCache::default_dir().string();
 
     CLI::App* bake = app.add_subcommand("bake", "bake SOURCE into the files of SPEC.md in OUTDIR");
-    bake->add_option("source", source, "lat-long source image (EXR, HDR, PNG, JPEG)")->required();
+    bake->add_option("source", source, "lat-long source image (EXR, HDR, PNG, JPEG, ...)")->required();
     bake->add_option("-o,--output", outdir, "output folder; replaced atomically when the bake completes")->required();
-    bake->add_option("--face-size", bo.face_size, "specular mip 0 face size")->capture_default_str();
-    bake->add_option("--irradiance-size", bo.irradiance_size, "irradiance face size")->capture_default_str();
-    bake->add_option("--mips", bo.mip_count, "specular mip count (0: full chain down to 1x1)")->capture_default_str();
-    bake->add_option("--lut-size", bo.lut_size, "BRDF LUT size (N x N)")->capture_default_str();
-    bake->add_option("--lut-model", model, "BRDF LUT model: karis, height-correlated, multiscatter")
-        ->capture_default_str();
-    bake->add_option("--specular-method", method,
-                     "hierarchical (deterministic kernel sum over exact bins) or fis (filtered importance sampling)")
-        ->capture_default_str();
-    bake->add_option("--eps", bo.hierarchical.eps,
-                     "hierarchical: bin size against the kernel's length scale; error grows as eps^3")
-        ->capture_default_str();
-    bake->add_option("--samples", samples,
-                     "fis: samples per texel, approximately (sets --rings to sqrt(S)/2 and the azimuthal cap to "
-                     "2 sqrt(S); default 576)");
-    bake->add_option("--rings", bo.specular_quality.rings, "fis: quadrature rings per texel")->capture_default_str();
-    bake->add_option("--lod-bias", bo.specular_quality.lod_bias, "fis: mip bias of filtered lookups")
-        ->capture_default_str();
-    bake->add_option("--format", formats, "output formats: exr, png (repeat or comma-separate)")
-        ->delimiter(',')
-        ->capture_default_str();
-    bake->add_option("--preset", presets,
-                     "engine preset(s), each into OUTDIR/NAME (repeat or comma-separate; `iblbake presets` lists them): "
-                     "three, khronos, bevy, filament, babylon, unity, source; NAME:FORMAT picks a pixel format")
-        ->delimiter(',');
-    bake->add_option("--layout", layout, "layout of the cubes in OUTDIR: hcross, vcross, faces, latlong")
-        ->capture_default_str();
-    bake->add_flag("--float32", wo.float32, "write crosses as full float instead of half");
-    bake->add_option("--png-encoding", encoding, "PNG encoding: srgb (8-bit, clamped) or rgbm")
-        ->capture_default_str();
-    bake->add_option("--exposure", wo.exposure, "PNG exposure in stops")->capture_default_str();
-    bake->add_option("--rgbm-range", wo.rgbm_range, "RGBM range")->capture_default_str();
-    bake->add_flag("--preview", wo.preview,
-                   "also write preview.png: irradiance, LUT, every specular level and spheres lit by the bake");
-    bake->add_flag("--no-irradiance", no_irr, "skip the irradiance cube");
-    bake->add_flag("--no-specular", no_spec, "skip the specular chain");
-    bake->add_flag("--no-lut", no_lut, "skip the BRDF LUT");
-    bake->add_flag("--strict", bo.strict, "fail on NaN, Inf or negative source values instead of zeroing them");
-    bake->add_option("--threads", bo.threads, "worker threads (0: all cores)")->capture_default_str();
-    bake->add_option("--hot-threshold", bo.hot_threshold,
-                     "texels brighter than this times the mean are integrated exactly")
-        ->capture_default_str();
-    bake->add_option("--max-hot", bo.max_hot, "at most this many exactly integrated texels")->capture_default_str();
+    // Every option of the bake, from the one table (pipeline/options.h): the
+    // text each was given, set in the table's order after parsing.
+    const BakeRequest defaults;
+    std::vector<std::pair<const OptionRow<BakeRequest>*, CLI::Option*>> registered;
+    std::vector<std::string> texts(option_table().size());
+    std::vector<std::vector<std::string>> lists(option_table().size());
+    for (size_t k = 0; k < option_table().size(); ++k) {
+        const OptionRow<BakeRequest>& row = option_table()[k];
+        const OptionSpec& spec = row.spec;
+        if (!(spec.surfaces & kCli)) continue;
+        std::string help = (spec.method.empty() ? "" : spec.method + ": ") + spec.help;
+        if (spec.has_range() && !std::isinf(spec.max))
+            help += " [" + option_value_text(double(spec.min)) + ".." + option_value_text(double(spec.max)) + "]";
+        if (spec.kind == OptionKind::Choice || spec.kind == OptionKind::List) {
+            std::string names;
+            for (const OptionChoice& c : spec.choices) names += (names.empty() ? "" : ", ") + c.value;
+            help += ": " + names + (spec.kind == OptionKind::List ? " (repeat or comma-separate)" : "");
+        }
+        static const char* const kTypeName[] = {"INT", "FLOAT", "", "NAME", "NAME,..."};
+        CLI::Option* opt;
+        if (spec.kind == OptionKind::Bool) {
+            opt = bake->add_flag(spec.cli_flag(), spec.cli_negated ? "do not " + spec.help : spec.help);
+        } else if (spec.kind == OptionKind::List) {
+            // No CLI11 delimiter: it drops empty names ("three,,khronos"), which
+            // are refused (each given text is split below, or by parse_presets).
+            opt = bake->add_option(spec.cli_flag(), lists[k], help);
+        } else {
+            opt = bake->add_option(spec.cli_flag(), texts[k], help);
+        }
+        if (spec.kind != OptionKind::Bool)
+            opt->type_name(kTypeName[int(spec.kind)])->default_str(option_value_text(row.get(defaults)));
+        registered.emplace_back(&row, opt);
+    }
     bake->add_option("--cache-dir", cache_dir, "where BRDF LUTs are cached for reuse")->capture_default_str();
     bake->add_flag("--no-cache", no_cache, "neither read nor write the LUT cache");
     bake->add_flag("-q,--quiet", quiet, "print nothing on success");
@@ -159,34 +178,18 @@ int main(int argc, char** argv) {
     }
 
     try {
-        bo.lut_model = lut_model_from_name(model);
-        wo.presets = parse_presets(presets);
-        wo.layout = layout_from_name(layout);
-        bo.specular_method = specular_method_from_name(method);
-        if (bake->count("--samples") && samples < 1) throw std::invalid_argument("--samples must be >= 1");
-        if (samples > 0) {
-            bo.specular_quality.rings = std::max(1, int(std::lround(std::sqrt(double(samples)) / 2.0)));
-            bo.specular_quality.max_phi = std::max(bo.specular_quality.min_phi,
-                                                   int(std::lround(2.0 * std::sqrt(double(samples)))));
+        std::vector<std::pair<std::string, OptionValue>> given;
+        for (const auto& [row, opt] : registered) {
+            if (opt->count() == 0) continue;
+            const OptionSpec& spec = row->spec;
+            const size_t k = size_t(row - option_table().data());
+            if (spec.kind == OptionKind::Bool) given.emplace_back(spec.name, !spec.cli_negated);
+            else if (spec.kind == OptionKind::List) given.emplace_back(spec.name, split_lists(spec, lists[k]));
+            else given.emplace_back(spec.name, parse_option_text(spec, texts[k]));
         }
-        // Options of the other specular method are not silently dropped.
-        const bool fis = bo.specular_method == SpecularMethod::Fis;
-        for (const char* opt : {"--samples", "--rings", "--lod-bias"})
-            if (!fis && bake->count(opt))
-                bo.warnings.push_back(std::string(opt) + " applies to --specular-method fis only: ignored");
-        if (fis && bake->count("--eps")) bo.warnings.push_back("--eps applies to --specular-method hierarchical only: ignored");
-        bo.irradiance = !no_irr;
-        bo.specular = !no_spec;
-        bo.lut = !no_lut;
-        wo.exr = wo.png = false;
-        for (const std::string& f : formats) {
-            if (f == "exr") wo.exr = true;
-            else if (f == "png") wo.png = true;
-            else throw std::invalid_argument("unknown format '" + f + "' (expected exr or png)");
-        }
-        if (encoding == "srgb") wo.png_encoding = PngEncoding::Srgb;
-        else if (encoding == "rgbm") wo.png_encoding = PngEncoding::Rgbm;
-        else throw std::invalid_argument("unknown PNG encoding '" + encoding + "' (expected srgb or rgbm)");
+        BakeRequest request;
+        apply_options(request, given, [](const OptionSpec& s) { return s.cli_flag(); });
+        const BakePlan plan = make_plan(request.bake, request.write);
 
         FileLutCache cache(cache_dir);
         struct sigaction sa {};
@@ -199,9 +202,10 @@ int main(int argc, char** argv) {
             if (stage != "reading source") g_reading = false;
             return g_signal == 0;
         };
-        const nlohmann::json m = bake_file(source, outdir, bo, wo, progress, no_cache ? nullptr : &cache);
+        const nlohmann::json m = bake_file(source, outdir, plan, progress, no_cache ? nullptr : &cache);
         g_reading = false;
         for (const auto& w : m["warnings"]) std::cerr << "iblbake: warning: " << w.get<std::string>() << "\n";
+        for (const std::string& note : clamp_notes(m)) std::cerr << "iblbake: warning: " << note << "\n";
         if (!quiet) {
             const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
             const std::string kernel = m["specular_kernel"].is_string()
@@ -210,6 +214,13 @@ int main(int argc, char** argv) {
             std::printf("baked %s -> %s in %.3f s (reading included; %zu specular levels%s, bad pixels: %llu)\n",
                         io::printable(source).c_str(), io::printable(outdir).c_str(), wall, m["specular"].size(),
                         kernel.c_str(), (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
+            if (m.contains("sun") && m["sun"].is_object()) {
+                const auto& sun = m["sun"];
+                if (sun["found"].get<bool>())
+                    std::printf("  sun       %s (sun.json, sun.gltf)\n", sun["why"].get<std::string>().c_str());
+                else
+                    std::printf("  sun       none: %s (sun.json)\n", sun["why"].get<std::string>().c_str());
+            }
             if (m.contains("presets"))
                 for (const auto& [name, entry] : m["presets"].items()) {
                     std::string files;

@@ -14,10 +14,13 @@
 #include "arrays.h"
 #include "bindings.h"
 #include "iblbake/bake/lut_cache.h"
-#include "iblbake/bake/bake_file.h"
 #include "iblbake/export/export.h"
+#include "iblbake/export/sun.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/output_dir.h"
+#include "iblbake/pipeline/bake_file.h"
+#include "iblbake/pipeline/options.h"
+#include "iblbake/pipeline/write.h"
 
 namespace py = pybind11;
 
@@ -36,8 +39,7 @@ T get_as(const pybind11::handle& v, const std::string& key, const char* type_nam
 
 // Everything the keyword options say.
 struct Parsed {
-    BakeOptions bo;
-    WriteOptions wo;
+    BakePlan plan;  // made once from the options, handed to every step
     ProgressFn progress;
     std::string source_path;
     std::string source_sha256;
@@ -47,104 +49,90 @@ struct Parsed {
 
 ProgressFn wrap_progress(const pybind11::object& cb);
 
-// Keyword options -> BakeOptions / WriteOptions / progress / LUT cache.
-// Unknown keys are an error. Runs with the GIL held.
+// manifest_extra: a dict of JSON values (no NaN, no infinity), as JSON.
+nlohmann::json manifest_extra_json(const pybind11::handle& v) {
+    if (!pybind11::isinstance<pybind11::dict>(v)) value_error("manifest_extra must be a dict");
+    std::string text;
+    try {
+        text = pybind11::str(pybind11::module_::import("json").attr("dumps")(v, pybind11::arg("allow_nan") = false));
+    } catch (const pybind11::error_already_set& e) {
+        if (e.matches(PyExc_ValueError))
+            value_error("manifest_extra: every number must be a finite number (JSON has no NaN or infinity)");
+        // The exception's own words, one line: e.what() carries a traceback.
+        std::string why = pybind11::str(e.value()).cast<std::string>();
+        std::replace(why.begin(), why.end(), '\n', ' ');
+        value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " + why);
+    }
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded()) value_error("manifest_extra is not valid JSON");
+    return j;
+}
+
+// A keyword's value as the option's kind takes it (pipeline/options.h
+// checks it further); a value of the wrong type is a ValueError naming it.
+OptionValue option_value(const OptionSpec& spec, const pybind11::handle& v) {
+    switch (spec.kind) {
+        case OptionKind::Int: return get_as<long long>(v, spec.name, "an int");
+        case OptionKind::Float: return get_as<double>(v, spec.name, "a number");
+        case OptionKind::Bool: return get_as<bool>(v, spec.name, "a bool");
+        case OptionKind::Choice: return get_as<std::string>(v, spec.name, "a str");
+        case OptionKind::List:
+            if (pybind11::isinstance<pybind11::str>(v) || pybind11::isinstance<pybind11::bytes>(v))
+                value_error(spec.name + " must be a list of names (e.g. ['" + spec.choices.at(0).value + "']), not a str");
+            return get_as<std::vector<std::string>>(v, spec.name, "a list of str");
+    }
+    value_error("option '" + spec.name + "' has no kind");
+}
+
+// Keyword options -> the plan (the options of pipeline/options.h's table) and
+// what belongs to this call: progress, the source's path and hash, more
+// manifest keys and warnings, why outputs are off, the LUT cache. Unknown
+// keys are an error. Runs with the GIL held.
 Parsed parse_options(const pybind11::dict& kw) {
     Parsed out;
-    BakeOptions& bo = out.bo;
-    WriteOptions& wo = out.wo;
+    BakeRequest request;
+    std::vector<std::pair<std::string, OptionValue>> given;
+    std::vector<Skip> skip_reasons;
+    std::vector<std::string> warnings;
+    nlohmann::json manifest_extra = nlohmann::json::object();
     pybind11::object progress = pybind11::none();
     std::string lut_cache_dir;
     for (auto item : kw) {
         const std::string key = pybind11::str(item.first);
         const pybind11::handle v = item.second;
-        auto as_int = [&] { return get_as<int>(v, key, "an int"); };
-        auto as_bool = [&] { return get_as<bool>(v, key, "a bool"); };
-        auto as_float = [&] { return get_as<double>(v, key, "a number"); };
         auto as_str = [&] { return get_as<std::string>(v, key, "a str"); };
-        if (key == "face_size") bo.face_size = as_int();
-        else if (key == "irradiance_size") bo.irradiance_size = as_int();
-        else if (key == "mip_count") bo.mip_count = as_int();
-        else if (key == "lut_size") bo.lut_size = as_int();
-        else if (key == "first_level") bo.first_level = as_int();
-        else if (key == "last_level") bo.last_level = as_int();
-        else if (key == "lut_model") bo.lut_model = lut_model_from_name(as_str());
-        else if (key == "irradiance") bo.irradiance = as_bool();
-        else if (key == "specular") bo.specular = as_bool();
-        else if (key == "lut") bo.lut = as_bool();
-        else if (key == "specular_method") bo.specular_method = specular_method_from_name(as_str());
-        else if (key == "eps") bo.hierarchical.eps = as_float();
-        else if (key == "tile") bo.hierarchical.tile = as_int();
-        else if (key == "rings") bo.specular_quality.rings = as_int();
-        else if (key == "min_phi") bo.specular_quality.min_phi = as_int();
-        else if (key == "max_phi") bo.specular_quality.max_phi = as_int();
-        else if (key == "lod_bias") bo.specular_quality.lod_bias = float(as_float());
-        else if (key == "specular_base_face") bo.specular_base_face = as_int();
-        else if (key == "irradiance_bins") bo.irradiance_bins = as_int();
-        else if (key == "irradiance_exact_face") bo.irradiance_exact_face = as_int();
-        else if (key == "lut_phi_points") bo.lut_quality.phi_points = as_int();
-        else if (key == "lut_u_points") bo.lut_quality.u_points = as_int();
-        else if (key == "lut_row_nodes") bo.lut_quality.row_nodes = as_int();
-        else if (key == "hot_threshold") bo.hot_threshold = as_float();
-        else if (key == "max_hot") bo.max_hot = as_int();
-        else if (key == "strict") bo.strict = as_bool();
-        else if (key == "threads") bo.threads = as_int();
-        else if (key == "skip_reasons") {
+        if (const OptionRow<BakeRequest>* row = find_option(key)) {
+            given.emplace_back(key, option_value(row->spec, v));
+        } else if (key == "skip_reasons") {
             for (auto kv : get_as<pybind11::dict>(v, key, "a dict of output -> reason"))
-                bo.skip_reasons.push_back({pybind11::str(kv.first), pybind11::str(kv.second)});
-        } else if (key == "formats") {
-            wo.exr = wo.png = false;
-            for (const std::string& f : get_as<std::vector<std::string>>(v, key, "a list of 'exr'/'png'")) {
-                if (f == "exr") wo.exr = true;
-                else if (f == "png") wo.png = true;
-                else value_error("unknown format '" + f + "' (expected 'exr' or 'png')");
-            }
-        } else if (key == "presets") {
-            if (pybind11::isinstance<pybind11::str>(v)) value_error("presets must be a list of preset names, e.g. ['three']");
-            wo.presets = parse_presets(get_as<std::vector<std::string>>(v, key, "a list of preset names"));
-        } else if (key == "layout") wo.layout = layout_from_name(as_str());
-        else if (key == "float32") wo.float32 = as_bool();
-        else if (key == "png_encoding") {
-            const std::string e = as_str();
-            if (e == "srgb") wo.png_encoding = PngEncoding::Srgb;
-            else if (e == "rgbm") wo.png_encoding = PngEncoding::Rgbm;
-            else value_error("unknown png_encoding '" + e + "' (expected 'srgb' or 'rgbm')");
-        } else if (key == "exposure") wo.exposure = float(as_float());
-        else if (key == "rgbm_range") wo.rgbm_range = float(as_float());
-        else if (key == "preview") wo.preview = as_bool();
-        else if (key == "progress") {
+                skip_reasons.push_back({pybind11::str(kv.first), pybind11::str(kv.second)});
+        } else if (key == "progress") {
             if (!v.is_none() && !pybind11::isinstance<pybind11::function>(v)) value_error("progress must be callable");
             progress = pybind11::reinterpret_borrow<pybind11::object>(v);
-        } else if (key == "source_path") out.source_path = v.is_none() ? std::string() : as_str();
-        else if (key == "source_sha256") {
+        } else if (key == "source_path") {
+            out.source_path = v.is_none() ? std::string() : as_str();
+        } else if (key == "source_sha256") {
             out.source_sha256 = v.is_none() ? std::string() : as_str();
             const bool hex = std::all_of(out.source_sha256.begin(), out.source_sha256.end(),
                                          [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
             if (!out.source_sha256.empty() && (out.source_sha256.size() != 64 || !hex))
                 value_error("source_sha256 must be 64 hex digits (the sha256 of the RGB float32 pixels)");
-        }
-        else if (key == "manifest_extra") {
-            if (!pybind11::isinstance<pybind11::dict>(v)) value_error("manifest_extra must be a dict");
-            std::string text;
-            try {
-                text = pybind11::str(pybind11::module_::import("json").attr("dumps")(v, pybind11::arg("allow_nan") = false));
-            } catch (const pybind11::error_already_set& e) {
-                if (e.matches(PyExc_ValueError))
-                    value_error("manifest_extra: every number must be a finite number (JSON has no NaN or infinity)");
-                value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " +
-                            std::string(e.what()));
-            }
-            wo.manifest_extra = nlohmann::json::parse(text, nullptr, false);
-            if (wo.manifest_extra.is_discarded()) value_error("manifest_extra is not valid JSON");
+        } else if (key == "manifest_extra") {
+            manifest_extra = manifest_extra_json(v);
         } else if (key == "warnings") {
-            for (const std::string& w : get_as<std::vector<std::string>>(v, key, "a list of str"))
-                bo.warnings.push_back(w);
-        } else if (key == "lut_cache_dir") lut_cache_dir = v.is_none() ? std::string() : as_str();
-        else value_error("unknown option '" + key + "'");
+            warnings = get_as<std::vector<std::string>>(v, key, "a list of str");
+        } else if (key == "lut_cache_dir") {
+            lut_cache_dir = v.is_none() ? std::string() : as_str();
+        } else {
+            value_error("unknown option '" + key + "'");
+        }
     }
-    bo.validate();
-    plan_presets(bo, wo.presets);  // a preset the options cannot serve fails here
-    bo = with_exports(bo, wo);     // the levels and files the presets need from the bake
+    apply_options(request, given, [](const OptionSpec& s) { return s.name; });
+    request.bake.skip_reasons = std::move(skip_reasons);
+    request.bake.warnings.insert(request.bake.warnings.begin(), warnings.begin(), warnings.end());
+    request.write.manifest_extra = std::move(manifest_extra);
+    // Validates the options; a preset they cannot serve fails here.
+    out.plan = make_plan(std::move(request.bake), std::move(request.write));
     out.progress = wrap_progress(progress);
     if (!lut_cache_dir.empty()) out.cache.emplace(lut_cache_dir);
     return out;
@@ -197,6 +185,7 @@ pybind11::dict result_dict(const BakeResult& r) {
     for (const auto& [k, v] : r.timings) timings[pybind11::str(k)] = v;
     d["timings"] = timings;
     d["hot_texels"] = r.hot_texels;
+    d["sun"] = r.sun ? json_to_py(sun_json(*r.sun)) : pybind11::none();
     return d;
 }
 
@@ -215,12 +204,12 @@ std::string path_arg(const pybind11::handle& v, const char* what) {
 // held, before any work, so that a refused folder costs nothing.
 std::string checked_out_dir(const pybind11::object& out_dir, const Parsed& p) {
     if (out_dir.is_none()) {
-        if (!p.wo.presets.empty()) value_error("presets write files: give an out_dir");
+        if (!p.plan.write.presets.empty()) value_error("presets write files: give an out_dir");
         return {};
     }
     const std::string out = path_arg(out_dir, "out_dir");
     if (out.empty()) value_error("out_dir must be a non-empty path, or None to write nothing");
-    p.wo.validate();
+    p.plan.write.validate();
     io::check_replaceable(out, p.source_path);
     return out;
 }
@@ -234,8 +223,8 @@ pybind11::dict run_bake(Parsed& p, const std::string& out, SourceInfo src, Compu
     {
         pybind11::gil_scoped_release release;
         r = compute(src);
-        manifest = out.empty() ? make_manifest(r, p.bo, p.wo, src, nlohmann::json::object())
-                               : write_bake(r, out, p.bo, p.wo, src, p.progress, p.lut_cache());
+        manifest = out.empty() ? make_manifest(r, p.plan, src, nlohmann::json::object())
+                               : write_bake(r, out, p.plan, src, p.progress, p.lut_cache());
     }
     pybind11::dict d = result_dict(r);
     d["manifest"] = json_to_py(manifest);
@@ -271,8 +260,8 @@ void bind_bake(pybind11::module_& m) {
                                    ? io::sha256_file(s.path)
                                    : io::sha256_bytes(view.data, view.value_count() * sizeof(float));
                 }
-                return pixels.is_rgb() ? compute_bake_view(view, p.bo, p.progress, p.lut_cache())
-                                       : compute_bake(std::move(rgb), p.bo, p.progress, p.lut_cache());
+                return pixels.is_rgb() ? compute_bake_view(view, p.plan.bake, p.progress, p.lut_cache())
+                                       : compute_bake(std::move(rgb), p.plan.bake, p.progress, p.lut_cache());
             });
         },
         pybind11::arg("image"), pybind11::arg("out_dir") = pybind11::none(),
@@ -280,18 +269,13 @@ void bind_bake(pybind11::module_& m) {
 
 With out_dir, writes SPEC.md's files there atomically. Always returns a dict with
 'irradiance' (6, N, N, 3), 'specular' (list of (6, n, n, 3)), 'roughness', 'brdf_lut' (N, N, 3),
-'specular_levels', 'sh9' (3, 9), 'bad_input', 'timings' and 'manifest'. Options (keywords): face_size,
-irradiance_size, mip_count, first_level, last_level (bake only those specular levels), lut_size, lut_model, irradiance, specular, lut, specular_method ('hierarchical' or 'fis'),
-eps, tile (hierarchical), rings, min_phi, max_phi, lod_bias (fis),
-specular_base_face, irradiance_bins, irradiance_exact_face, lut_phi_points, lut_u_points,
-lut_row_nodes (0: integrate every LUT texel; k >= 4: k integrals per row, spline between),
-hot_threshold, max_hot, strict, threads, skip_reasons, formats, float32, png_encoding, exposure,
-rgbm_range, preview (also write preview.png, a contact sheet), progress (callable(stage, fraction) -> bool; False cancels), source_path,
-source_sha256 (the manifest's hash, when the caller has it already; else a written bake hashes the file
-or the pixels, and an unwritten one leaves it null),
-lut_cache_dir (a folder where BRDF LUTs are reused across bakes; none by default), manifest_extra (a dict of
-more top-level manifest keys), presets (engine presets, e.g. ['three', 'khronos:rgba32f']: each writes
-out_dir/<name>/, see presets()), layout ('hcross', 'vcross', 'faces', 'latlong').
+'specular_levels', 'sh9' (3, 9), 'bad_input', 'timings', 'sun' (with sun='split': sun.json's content, else None) and
+'manifest'. Options (keywords): every row of
+options() (face_size, formats, presets, ...: the CLI's options), and for this call: progress (callable(stage,
+fraction) -> bool; False cancels), source_path, source_sha256 (the manifest's hash, when the caller has it already;
+else a written bake hashes the file or the pixels, and an unwritten one leaves it null), lut_cache_dir (a folder
+where BRDF LUTs are reused across bakes; none by default), manifest_extra (a dict of more top-level manifest keys),
+warnings (a list of str the manifest's warnings start with), skip_reasons (a dict: output -> why it is off).
 Raises ValueError on a wrong dtype, shape or option, or on bad pixels with strict=True.)doc");
 
     m.def(
@@ -304,7 +288,7 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
             src.width = src.height = 1;
             return run_bake(p, out, src, [&](SourceInfo& s) {
                 s.sha256 = io::sha256_bytes(rgb.data(), sizeof(rgb));
-                return compute_constant_bake(rgb, p.bo, p.progress, p.lut_cache());
+                return compute_constant_bake(rgb, p.plan.bake, p.progress, p.lut_cache());
             });
         },
         pybind11::arg("rgb"), pybind11::arg("out_dir") = pybind11::none(),
@@ -316,6 +300,13 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
         "supercompression, mirror, curve, lod_formula, levels, smallest, roughness_at_256, diffuse, diffuse_note, sh, "
         "lut, notes.");
 
+    m.def(
+        "options", [] { return json_to_py(options_json()); },
+        "The bake's options, the table the CLI, bake_world.py and the add-on are made from: a list of dicts with "
+        "name (the keyword bake() takes), kind ('int', 'float', 'bool', 'choice', 'list'), label, help, default, "
+        "min and max (numbers with a range), choices ([{value, label, help}]), cli (the CLI's flag, or None), "
+        "cli_negated, blender (offered in Blender), method, note.");
+
     m.def("default_lut_cache_dir", [] { return FileLutCache::default_dir().string(); },
           "The CLI's LUT cache folder: $IBLBAKE_CACHE_DIR, else $XDG_CACHE_HOME/iblbake, else ~/.cache/iblbake.");
 
@@ -323,7 +314,7 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
         "check_options",
         [](const pybind11::kwargs& kw) {
             Parsed p = parse_options(kw);
-            p.wo.validate();
+            p.plan.write.validate();
         },
         "Raise ValueError, with the CLI's message, if bake()'s keyword options are not valid; do nothing else.");
 
@@ -335,7 +326,7 @@ Raises ValueError on a wrong dtype, shape or option, or on bad pixels with stric
             nlohmann::json manifest;
             {
                 pybind11::gil_scoped_release release;
-                manifest = bake_file(source, out_dir, p.bo, p.wo, p.progress, p.lut_cache());
+                manifest = bake_file(source, out_dir, p.plan, p.progress, p.lut_cache());
             }
             return json_to_py(manifest);
         },

@@ -1,5 +1,7 @@
 """The Blender add-on in headless Blender (see cases.py for the scenes)."""
+import json
 import os
+import re
 import subprocess
 
 import numpy as np
@@ -310,3 +312,122 @@ def test_a_zip_built_for_another_python_is_refused_with_the_reason(tmp_path):
     assert "ENABLED=False" in p.stdout and "REGISTERED=False" in p.stdout, p.stdout
     error = [line for line in p.stdout.splitlines() if line.startswith("ERROR=")][0]
     assert "built for Python 3.0" in error and "this Blender runs Python 3." in error, error
+
+
+def test_bake_worlds_flags_and_the_addons_properties_are_the_tables(tmp_path):
+    """bake_world.py's argparse and the add-on's properties are made from
+    the options table (core/options.py: the native rows offered in Blender
+    and the add-on's own): a flag and a property per row, with the row's
+    label, default and range."""
+    p = bake_world("--help")
+    assert p.returncode == 0, p.stderr
+    flags = set(re.findall(r"(--[a-z0-9-]+)", p.stdout))
+    script = tmp_path / "rows.py"
+    script.write_text(
+        "import bpy, json, sys\n"
+        "sys.path.insert(0, %r)\n"
+        "import iblbake\n"
+        "iblbake.register()\n"
+        "from iblbake.core import options\n"
+        "rows = options.rows()\n"
+        "props = bpy.context.scene.iblbake\n"
+        "out = []\n"
+        "for r in rows:\n"
+        "    rna = props.bl_rna.properties.get(r['name'])\n"
+        "    out.append(dict(name=r['name'], flag=options.cli_flag(r), label=rna.name if rna else None,\n"
+        "                    want=r['label'], default=getattr(props, r['name'], None), row_default=r['default'],\n"
+        "                    min=getattr(rna, 'hard_min', None), row_min=r.get('min')))\n"
+        "print('ROWS=' + json.dumps(out, default=sorted))\n" % os.path.join(ROOT, "addon"))
+    q = run_blender(["--python-exit-code", "1", "--python", str(script)])
+    assert q.returncode == 0, q.stdout[-2000:] + q.stderr[-2000:]
+    rows = json.loads([ln for ln in q.stdout.splitlines() if ln.startswith("ROWS=")][0][5:])
+    names = {r["name"] for r in rows}
+    assert {"face_size", "formats", "presets", "irradiance", "render_width"} <= names
+    for r in rows:
+        assert r["flag"] in flags, r
+        assert r["label"] == r["want"], r
+        default = sorted(r["default"]) if isinstance(r["default"], list) else r["default"]
+        row_default = sorted(r["row_default"]) if isinstance(r["row_default"], list) else r["row_default"]
+        assert default == pytest.approx(row_default) if isinstance(default, float) else default == row_default, r
+        if r["row_min"] is not None and r["min"] is not None:
+            assert r["min"] == pytest.approx(r["row_min"]), r
+
+
+def test_the_clis_rotation_turns_the_world_as_blenders_mapping_node(tmp_path):
+    """iblbake bake --rotation 30 and bake_world.py --rotation-z 30 (a
+    Mapping node, Point, rotation Z, in front of the Environment Texture)
+    bake the same lighting. forest.exr has 784 texels just below zero
+    (down to -0.0016): the CLI treats them as 0 before turning the world,
+    the add-on turns Blender's pixels first, so dark texels may differ by
+    that much."""
+    opts = ["--face-size", "32", "--irradiance-size", "8", "--no-lut"]
+    p = bake_world("--hdri", FOREST, "--rotation-z", "30", "--out", str(tmp_path / "addon"), *opts)
+    assert p.returncode == 0, p.stdout + p.stderr
+    subprocess.run([CLI, "bake", FOREST, "-o", str(tmp_path / "cli"), "--rotation", "30", "-q", *opts], check=True,
+                   env=dict(os.environ, IBLBAKE_CACHE_DIR=str(tmp_path / "cache")))
+    assert manifest(tmp_path / "addon")["blender"]["mapping"]["rotation_degrees"][2] == pytest.approx(30.0)
+    assert manifest(tmp_path / "cli")["options"]["rotation_degrees"] == 30.0
+    for name in ["irradiance.exr"] + ["specular_%d.exr" % m for m in range(6)]:  # half floats: 2^-11 apart
+        np.testing.assert_allclose(read(tmp_path / "addon" / name), read(tmp_path / "cli" / name), rtol=1e-3,
+                                   atol=1.6e-3, err_msg=name)
+
+
+SUNSET = "/usr/share/blender/datafiles/studiolights/world/sunset.exr"
+# Rendered Nishita skies are kept here between runs (half a minute each on 2 cores).
+SUN_CACHE = os.environ.get("IBLBAKE_TEST_CACHE", os.path.join(os.path.expanduser("~"), ".cache", "iblbake-tests"))
+
+
+def test_sun_split_in_blender_and_add_sun_lamp(case):
+    """Sun: Split on sunset.exr as the world: the panel's sentence, and Add
+    Sun Lamp makes (then updates, not duplicates) a Sun lamp whose -Z is the
+    light's direction of travel, Strength x colour = E, Angle = the diameter."""
+    if not os.path.isfile(SUNSET):
+        pytest.skip("Blender's studio lights are not installed")
+    res, work = case("sun_lamp", hdri=SUNSET)
+    assert res["result"] == ["FINISHED"], res
+    sun = res["sun"]
+    assert sun["found"], sun["why"]
+    assert manifest(work / "out")["sun"] == sun
+    assert os.path.isfile(work / "out" / "sun.json") and os.path.isfile(work / "out" / "sun.gltf")
+    assert re.fullmatch(r"Sun at \d+\u00b0 elevation, [\d.]+\u00b0 across, \d+ % of the direct light", res["sentence"]), \
+        res["sentence"]
+    assert res["poll"] and res["ops"] == [["FINISHED"], ["FINISHED"]] and res["lamps"] == 1
+    lamp = res["lamp"]
+    assert lamp["type"] == "SUN" and lamp["bake"] == str(work / "out")
+    np.testing.assert_allclose(np.asarray(lamp["color"]) * lamp["energy"], sun["illuminance"], rtol=1e-5)
+    assert lamp["angle_deg"] == pytest.approx(sun["angular_diameter_deg"], rel=1e-5)
+    np.testing.assert_allclose(lamp["shines_along"], -np.asarray(sun["direction"]), atol=1e-5)
+    assert res["off"]["result"] == ["FINISHED"] and res["off_sentence"] == ""
+
+
+def test_sun_split_of_a_nishita_sky(case):
+    """Blender's Nishita sky (the sun 15 degrees up): the sun is found, the
+    removed light's cosine integral at its direction is E per channel
+    (0.1 %), no sun-free texel within a diameter is above twice the
+    brightest 1 to 3 diameters away, nothing is negative; without its sun
+    disc, nothing is split."""
+    res, _ = case("sun_nishita", cache=SUN_CACHE)
+    disc, nodisc = res["disc"], res["nodisc"]
+    sun, checks = disc["sun"], disc["checks"]
+    print("nishita: %s; E %s, share %.4f, diameter %.4f, direction %s" % (
+        sun["why"], sun.get("illuminance"), sun.get("irradiance_share", 0), sun.get("angular_diameter_deg", 0),
+        sun.get("direction")))
+    assert sun["found"], sun["why"]
+    assert sun["elevation_deg"] == pytest.approx(15.0, abs=0.5)
+    np.testing.assert_allclose(checks["removed_cosine"], sun["illuminance"], rtol=1e-3)
+    assert checks["negative"] == 0 and checks["inner_max"] <= 2 * checks["ring_max"], checks
+    assert not nodisc["sun"]["found"] and nodisc["checks"]["texels_changed"] == 0, nodisc["sun"]["why"]
+
+
+def test_bake_world_sun_split(tmp_path):
+    """bake_world.py --sun split: the manifest's sun and the files, as the CLI's."""
+    if not os.path.isfile(SUNSET):
+        pytest.skip("Blender's studio lights are not installed")
+    opts = ["--face-size", "16", "--irradiance-size", "8", "--lut-size", "16", "--sun", "split"]
+    p = bake_world("--hdri", SUNSET, "--out", str(tmp_path / "addon"), *opts)
+    assert p.returncode == 0, p.stdout + p.stderr
+    subprocess.run([CLI, "bake", SUNSET, "-o", str(tmp_path / "cli"), "-q", *opts], check=True)
+    a, c = manifest(tmp_path / "addon"), manifest(tmp_path / "cli")
+    assert a["sun"]["found"] and a["options"]["sun"] == "split"
+    np.testing.assert_allclose(a["sun"]["illuminance"], c["sun"]["illuminance"], rtol=1e-6)
+    np.testing.assert_allclose(a["sun"]["direction"], c["sun"]["direction"], atol=1e-9)

@@ -30,10 +30,10 @@
 #include <vector>
 
 #include "iblbake/bake/bake.h"
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/cube.h"
+#include "iblbake/util/parallel.h"
 #include "reference.h"
 
 using namespace iblbake;

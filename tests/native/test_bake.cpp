@@ -11,12 +11,13 @@
 #include <string>
 #include <vector>
 
-#include "iblbake/bake/bake_file.h"
 #include "iblbake/bake/lut_cache.h"
-#include "iblbake/image/encode.h"
 #include "iblbake/ibl/specular.h"
+#include "iblbake/image/encode.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/color.h"
+#include "iblbake/pipeline/bake_file.h"
+#include "iblbake/pipeline/write.h"
 #include "reference.h"
 
 using namespace iblbake;
@@ -60,7 +61,7 @@ TEST(Bake, WritesEveryFileTheManifestNames) {
     const fs::path src = write_source(dir, ref::random_smooth_source(64, 32, 1));
     WriteOptions wo;
     wo.png = true;
-    const nlohmann::json m = bake_file(src.string(), dir / "out", small_options(), wo);
+    const nlohmann::json m = bake_file(src.string(), dir / "out", make_plan(small_options(), wo));
     for (const char* key : {"contract", "source", "convention", "layout", "irradiance", "specular", "brdf_lut", "sh9",
                             "bad_input", "skipped", "encodings", "timings"})
         EXPECT_TRUE(m.contains(key)) << key;
@@ -89,21 +90,21 @@ TEST(Bake, WritesEveryFileTheManifestNames) {
 TEST(Bake, FailedBakeKeepsEarlierOne) {
     const fs::path dir = temp_dir("atomic");
     const fs::path src = write_source(dir, ref::random_smooth_source(64, 32, 2));
-    bake_file(src.string(), dir / "out", small_options(), {});
+    bake_file(src.string(), dir / "out", make_plan(small_options(), {}));
     const auto before = read_json(dir / "out" / "manifest.json");
     // Missing, empty and corrupt sources: clear errors, old bake intact.
-    EXPECT_THROW(bake_file((dir / "missing.exr").string(), dir / "out", small_options(), {}), std::runtime_error);
+    EXPECT_THROW(bake_file((dir / "missing.exr").string(), dir / "out", make_plan(small_options(), {})), std::runtime_error);
     std::ofstream(dir / "empty.exr").close();
-    EXPECT_THROW(bake_file((dir / "empty.exr").string(), dir / "out", small_options(), {}), std::runtime_error);
+    EXPECT_THROW(bake_file((dir / "empty.exr").string(), dir / "out", make_plan(small_options(), {})), std::runtime_error);
     { std::ofstream f(dir / "corrupt.exr"); f << "this is not an EXR file at all, just text"; }
     try {
-        bake_file((dir / "corrupt.exr").string(), dir / "out", small_options(), {});
+        bake_file((dir / "corrupt.exr").string(), dir / "out", make_plan(small_options(), {}));
         FAIL() << "corrupt file accepted";
     } catch (const std::runtime_error& e) {
         EXPECT_NE(std::string(e.what()).find("corrupt.exr"), std::string::npos) << e.what();
     }
     // A cancelled bake leaves it intact too.
-    EXPECT_THROW(bake_file(src.string(), dir / "out", small_options(), {},
+    EXPECT_THROW(bake_file(src.string(), dir / "out", make_plan(small_options(), {}),
                            [](const std::string&, double f) { return f < 0.3; }),
                  Cancelled);
     EXPECT_EQ(read_json(dir / "out" / "manifest.json"), before);
@@ -133,7 +134,7 @@ TEST(Bake, BadPixelsCountedZeroedOrRefused) {
 TEST(Bake, HugeValuesGoToFullFloat) {
     const fs::path dir = temp_dir("huge");
     const fs::path src = write_source(dir, ref::sun_source(64, 32, {0, 0, 1}, 20.0, 1e6f, 1.0f));
-    const nlohmann::json m = bake_file(src.string(), dir / "out", small_options(), {});
+    const nlohmann::json m = bake_file(src.string(), dir / "out", make_plan(small_options(), {}));
     EXPECT_EQ(m["encodings"]["specular_0.exr"], "float");
 }
 
@@ -239,10 +240,10 @@ TEST(LutCache, SecondBakeCopiesTheLutFilesTheFirstEncoded) {
         std::sort(e.begin(), e.end());
         return e;
     };
-    bake_file(src.string(), dir / "a", small_options(), wo, {}, &cache);
+    bake_file(src.string(), dir / "a", make_plan(small_options(), wo), {}, &cache);
     const std::vector<fs::path> enc = entries();
     ASSERT_EQ(enc.size(), 2u);  // the EXR's and the PNG's
-    bake_file(src.string(), dir / "b", small_options(), wo, {}, &cache);
+    bake_file(src.string(), dir / "b", make_plan(small_options(), wo), {}, &cache);
     EXPECT_EQ(entries(), enc);
     for (const char* f : {"brdf_lut.exr", "brdf_lut.png"}) {
         EXPECT_EQ(bytes(dir / "a" / f), bytes(dir / "b" / f)) << f;
@@ -256,7 +257,7 @@ TEST(LutCache, SecondBakeCopiesTheLutFilesTheFirstEncoded) {
         std::ofstream(e, std::ios::binary | std::ios::trunc) << b;
         EXPECT_FALSE(cache.copy_encoded(e.stem().string(), dir / "x"));
     }
-    bake_file(src.string(), dir / "c", small_options(), wo, {}, &cache);
+    bake_file(src.string(), dir / "c", make_plan(small_options(), wo), {}, &cache);
     for (const char* f : {"brdf_lut.exr", "brdf_lut.png"}) EXPECT_EQ(bytes(dir / "a" / f), bytes(dir / "c" / f)) << f;
     for (const fs::path& e : enc) EXPECT_TRUE(cache.copy_encoded(e.stem().string(), dir / "x")) << e;
     // The copy is what the entry holds (the control that bakes do copy),
@@ -330,16 +331,16 @@ TEST(Bake, RefusesToReplaceWhatIsNotABake) {
     const fs::path src = write_source(dir, ref::constant_source(16, 8, 1.0f));
     fs::create_directories(dir / "precious");
     { std::ofstream f(dir / "precious" / "notes.txt"); f << "keep me"; }
-    EXPECT_THROW(bake_file(src.string(), dir / "precious", small_options(), {}), std::runtime_error);
+    EXPECT_THROW(bake_file(src.string(), dir / "precious", make_plan(small_options(), {})), std::runtime_error);
     EXPECT_TRUE(fs::exists(dir / "precious" / "notes.txt"));
     // The folder holding the source, the current folder, an empty path: refused.
-    EXPECT_THROW(bake_file(src.string(), dir, small_options(), {}), std::runtime_error);
-    EXPECT_THROW(bake_file(src.string(), fs::current_path(), small_options(), {}), std::runtime_error);
-    EXPECT_THROW(bake_file(src.string(), "", small_options(), {}), std::runtime_error);
+    EXPECT_THROW(bake_file(src.string(), dir, make_plan(small_options(), {})), std::runtime_error);
+    EXPECT_THROW(bake_file(src.string(), fs::current_path(), make_plan(small_options(), {})), std::runtime_error);
+    EXPECT_THROW(bake_file(src.string(), "", make_plan(small_options(), {})), std::runtime_error);
     // An empty folder and an earlier bake are fine.
     fs::create_directories(dir / "empty");
-    EXPECT_NO_THROW(bake_file(src.string(), dir / "empty", small_options(), {}));
-    EXPECT_NO_THROW(bake_file(src.string(), dir / "empty", small_options(), {}));
+    EXPECT_NO_THROW(bake_file(src.string(), dir / "empty", make_plan(small_options(), {})));
+    EXPECT_NO_THROW(bake_file(src.string(), dir / "empty", make_plan(small_options(), {})));
 }
 
 TEST(Bake, StaleStagingFromKilledBakesIsRemoved) {
@@ -347,7 +348,7 @@ TEST(Bake, StaleStagingFromKilledBakesIsRemoved) {
     const fs::path src = write_source(dir, ref::constant_source(16, 8, 1.0f));
     // A staging folder whose process is gone (pid 999999999 does not exist).
     fs::create_directories(dir / ".out.iblbake-999999999-deadbeef");
-    bake_file(src.string(), dir / "out", small_options(), {});
+    bake_file(src.string(), dir / "out", make_plan(small_options(), {}));
     EXPECT_FALSE(fs::exists(dir / ".out.iblbake-999999999-deadbeef"));
 }
 
@@ -375,9 +376,9 @@ TEST(Bake, FilesAreByteIdenticalAcrossThreadCounts) {
     wo.png = true;
     BakeOptions o = small_options();
     o.threads = 1;
-    bake_file(src.string(), dir / "one", o, wo);
+    bake_file(src.string(), dir / "one", make_plan(o, wo));
     o.threads = 2;
-    bake_file(src.string(), dir / "two", o, wo);
+    bake_file(src.string(), dir / "two", make_plan(o, wo));
     for (const auto& e : fs::directory_iterator(dir / "one")) {
         if (e.path().filename() == "manifest.json") continue;  // holds timings
         std::ifstream a(e.path(), std::ios::binary), b(dir / "two" / e.path().filename(), std::ios::binary);
@@ -434,7 +435,7 @@ TEST(Bake, LevelRangeBakesOnlyThoseLevelsAndNamesTheRest) {
     for (const Skip& s : part.skipped) named |= s.what == "specular levels 0-0, 4-4";
     EXPECT_TRUE(named);
     const fs::path dir = temp_dir("levels");
-    const nlohmann::json m = write_bake(part, dir / "out", o, WriteOptions{}, SourceInfo{});
+    const nlohmann::json m = write_bake(part, dir / "out", make_plan(o, WriteOptions{}), SourceInfo{});
     EXPECT_EQ(m["specular"][0]["level"], 1);
     EXPECT_TRUE(fs::exists(dir / "out" / "specular_3.exr"));
     EXPECT_FALSE(fs::exists(dir / "out" / "specular_0.exr"));
@@ -473,11 +474,11 @@ TEST(Bake, ManifestExtraKeysAreAddedButNeverReplaceTheContract) {
     const BakeResult r = compute_constant_bake({1, 1, 1}, o);
     WriteOptions wo;
     wo.manifest_extra = {{"blender", {{"world_path", "plain colour"}}}};
-    const nlohmann::json m = make_manifest(r, o, wo, SourceInfo{}, nlohmann::json::object());
+    const nlohmann::json m = make_manifest(r, make_plan(o, wo), SourceInfo{}, nlohmann::json::object());
     EXPECT_EQ(m["blender"]["world_path"], "plain colour");
     EXPECT_EQ(m["contract"], 1);
     wo.manifest_extra = {{"sh9", 0}};
-    EXPECT_THROW(make_manifest(r, o, wo, SourceInfo{}, nlohmann::json::object()), std::invalid_argument);
+    EXPECT_THROW(make_manifest(r, make_plan(o, wo), SourceInfo{}, nlohmann::json::object()), std::invalid_argument);
 }
 
 // The manifest says which specular kernel ran; IBLBAKE_ISA=baseline forces

@@ -16,18 +16,19 @@
 #include <random>
 #include <sstream>
 
-#include "iblbake/bake/bake_file.h"
 #include "iblbake/export/container.h"
 #include "iblbake/export/convert.h"
 #include "iblbake/export/export.h"
 #include "iblbake/export/layout.h"
 #include "iblbake/export/pixel.h"
-#include "iblbake/export/plan.h"
 #include "iblbake/export/preset.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
+#include "iblbake/pipeline/bake_file.h"
+#include "iblbake/pipeline/exports.h"
+#include "iblbake/pipeline/plan.h"
 #include "reference.h"
 
 using namespace iblbake;
@@ -167,7 +168,17 @@ TEST(Presets, ParseModifiersAndErrors) {
     EXPECT_NE(message([] { parse_preset("threejs"); }).find("expected one of three, khronos"), std::string::npos);
     EXPECT_NE(message([] { parse_presets({"three,filament", "three"}); }).find("given twice"), std::string::npos);
     EXPECT_EQ(parse_presets({"three,filament", "babylon"}).size(), 3u);
-    EXPECT_TRUE(parse_presets({""}).empty());
+    EXPECT_TRUE(parse_presets({}).empty());
+    // Issue 24 (E14): contradictions and empty parts are refused, not the last one silently kept.
+    EXPECT_NE(message([] { parse_preset("khronos:rgba32f:rgba16f"); }).find("contradict"), std::string::npos);
+    EXPECT_NE(message([] { parse_preset("khronos:zstd:nozstd"); }).find("contradict"), std::string::npos);
+    EXPECT_NE(message([] { parse_preset("khronos:"); }).find("empty modifier"), std::string::npos);
+    EXPECT_NE(message([] { parse_presets({""}); }).find("empty preset"), std::string::npos);
+    EXPECT_NE(message([] { parse_presets({"three,,khronos"}); }).find("empty preset name"), std::string::npos);
+    // E6: a chain that would hold the mirror level alone.
+    EXPECT_NE(message([] { check_preset_face_size(parse_preset("three"), 16); }).find("32 or more"), std::string::npos);
+    EXPECT_EQ(message([] { check_preset_face_size(parse_preset("three"), 32); }), "");
+    EXPECT_EQ(message([] { check_preset_face_size(parse_preset("khronos"), 2); }), "");
 }
 
 // ---------------------------------------------------------------- conventions
@@ -677,11 +688,11 @@ TEST(Export, PresetLevelsAreIntegratedAtTheirOwnRoughness) {
     bo.lut = false;
     WriteOptions wo;
     wo.presets = parse_presets({"babylon,unity,three"});
-    const BakeOptions with = with_exports(bo, wo);
-    const BakeResult r = compute_bake(src, with);
+    const BakePlan plan = make_plan(bo, wo);
+    const BakeResult r = compute_bake(src, plan.bake);
     const ref::TexelTable table = ref::texel_table(src);
-    for (const PresetPlan& plan : plan_presets(with, wo.presets))
-        for (const PresetLevel& l : plan.levels) {
+    for (const PresetPlan& preset : plan.presets)
+        for (const PresetLevel& l : preset.levels) {
             if (l.roughness == 0.0 || l.face_size < 4) continue;
             const Cubemap& cube = baked_level(r, l.face_size, l.roughness);
             // The SPEC roughness nearest to this level's, as a resampling would use.
@@ -700,10 +711,10 @@ TEST(Export, PresetLevelsAreIntegratedAtTheirOwnRoughness) {
             }
             err /= count;
             err_wrong /= count;
-            EXPECT_LT(err, 0.01) << plan.preset.name << " level " << l.level << " r " << l.roughness;
+            EXPECT_LT(err, 0.01) << preset.preset.name << " level " << l.level << " r " << l.roughness;
             // Negative control: the nearest SPEC roughness would be clearly off.
             if (std::fabs(spec_r - l.roughness) > 0.03) {
-                EXPECT_GT(err_wrong, 3 * err) << plan.preset.name << " " << l.level;
+                EXPECT_GT(err_wrong, 3 * err) << preset.preset.name << " " << l.level;
             }
         }
 }
@@ -718,7 +729,7 @@ TEST(Export, SixPresetBakeWritesEveryFileAndTheManifestSaysWhat) {
     bo.lut_size = 32;
     WriteOptions wo;
     wo.presets = parse_presets({"khronos", "bevy", "three", "filament", "babylon", "unity", "source"});
-    const nlohmann::json m = bake_file(src.string(), dir / "out", bo, wo);
+    const nlohmann::json m = bake_file(src.string(), dir / "out", make_plan(bo, wo));
     ASSERT_TRUE(m.contains("presets"));
     for (const Preset& p : wo.presets) {
         const auto& e = m["presets"][p.name];
@@ -769,16 +780,16 @@ TEST(Export, MarkerColoursLandWhereEachMirrorPutsThem) {
     const fs::path dir = temp_dir("marker");
     io::write_exr((dir / "src.exr").string(), src, io::ExrPixel::Float);
     BakeOptions bo;
-    bo.face_size = 16;
+    bo.face_size = 32;  // three needs two levels at least (issue 24, E6)
     bo.irradiance_size = 4;
     bo.lut = false;
     WriteOptions wo;
     wo.presets = parse_presets({"khronos", "three", "bevy:rgba16f:nozstd"});  // bevy's mirror, read as RGBA16F
-    bake_file((dir / "src.exr").string(), dir / "out", bo, wo);
+    bake_file((dir / "src.exr").string(), dir / "out", make_plan(bo, wo));
     // The centre texel of each face of level 0 in each KTX2 file.
     auto centre = [&](const std::string& preset, int face, float out[3]) {
         const Bytes b = read_file(dir / "out" / preset / "specular.ktx2");
-        const size_t n = 16, at = u64(b, 80) + ((face * n + n / 2) * n + n / 2) * 8;
+        const size_t n = 32, at = u64(b, 80) + ((face * n + n / 2) * n + n / 2) * 8;
         for (int c = 0; c < 3; ++c) out[c] = f16(b, at + 2 * c);
     };
     // none: the face's own colour; x: +X and -X swapped; z: +Z and -Z swapped.

@@ -7,9 +7,9 @@
 #include <vector>
 
 #include "iblbake/bake/bake.h"
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
+#include "iblbake/util/parallel.h"
 #include "reference.h"
 
 using namespace iblbake;

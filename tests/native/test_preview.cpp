@@ -9,10 +9,10 @@
 #include <unistd.h>
 
 #include "iblbake/bake/bake.h"
-#include "iblbake/bake/write.h"
 #include "iblbake/ibl/brdf_lut.h"
-#include "iblbake/image/preview.h"
 #include "iblbake/io/image_io.h"
+#include "iblbake/pipeline/preview.h"
+#include "iblbake/pipeline/write.h"
 
 using namespace iblbake;
 namespace fs = std::filesystem;
@@ -119,7 +119,7 @@ TEST(Preview, WrittenBesideTheBakeWhenAsked) {
     const BakeResult r = compute_constant_bake({0.5f, 0.5f, 0.5f}, options());
     WriteOptions wo;
     wo.preview = true;
-    const auto m = write_bake(r, dir, options(), wo, SourceInfo{});
+    const auto m = write_bake(r, dir, make_plan(options(), wo), SourceInfo{});
     ASSERT_TRUE(fs::is_regular_file(dir / "preview.png"));
     EXPECT_EQ(m["preview"]["file"], "preview.png");
     EXPECT_EQ(m["encodings"]["preview.png"], "srgb8");
@@ -133,7 +133,7 @@ TEST(Preview, WrittenBesideTheBakeWhenAsked) {
         EXPECT_NEAR(png.image.at(spot.cx, spot.cy)[ch], sheet.at(spot.cx, spot.cy)[ch], 0.01);
     wo.preview = false;
     fs::remove_all(dir);
-    const auto m2 = write_bake(r, dir, options(), wo, SourceInfo{});
+    const auto m2 = write_bake(r, dir, make_plan(options(), wo), SourceInfo{});
     EXPECT_FALSE(fs::exists(dir / "preview.png"));
     EXPECT_FALSE(m2.contains("preview"));
     fs::remove_all(dir);

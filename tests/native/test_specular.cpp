@@ -12,10 +12,10 @@
 
 #include "iblbake/bake/bake.h"
 #include "iblbake/ibl/bin_tree.h"
-#include "iblbake/ibl/parallel.h"
-#include "iblbake/ibl/specular.h"
 #include "iblbake/ibl/source.h"
+#include "iblbake/ibl/specular.h"
 #include "iblbake/math/cube.h"
+#include "iblbake/util/parallel.h"
 #include "reference.h"
 
 using namespace iblbake;

@@ -15,7 +15,7 @@ from iblbake.core.world import IMAGE, WorldSource  # noqa: E402
 
 
 def small(tmp_path, **kw):
-    s = BakeSettings(out_dir=str(tmp_path / "out"), face_size=16, irradiance_size=4, lut_size=16,
+    s = BakeSettings(out_dir=str(tmp_path / "out"), face_size=32, irradiance_size=4, lut_size=16,
                      lut_cache_dir=str(tmp_path / "cache"))
     for k, v in kw.items():
         setattr(s, k, v)
@@ -47,6 +47,6 @@ def test_presets_alone_are_something_to_bake_and_bad_ones_fail_cleanly(tmp_path)
     assert rep.status == "baked" and (tmp_path / "out" / "filament" / "ibl.ktx").is_file()
     with pytest.raises(pipeline.BakeError, match="unknown preset"):
         pipeline.bake(WorldSource(IMAGE), sky() * 2, small(tmp_path, presets=["frostbite"]))
-    with pytest.raises(pipeline.BakeError, match="list of engine preset names"):
+    with pytest.raises(pipeline.BakeError, match="presets must be a list of names, not .three."):
         pipeline.bake(WorldSource(IMAGE), sky() * 2, small(tmp_path, presets="three"))
     assert (tmp_path / "out" / "filament" / "ibl.ktx").is_file()  # the earlier bake stays

@@ -37,7 +37,7 @@ def source(w=256, h=128):
 def bake_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("export") / "out"
     res = ib.bake(source(), str(out), face_size=FACE, irradiance_size=8, lut_size=32,
-                  presets=SIX + ["source"], formats=["exr"], float32=False)
+                  presets=SIX + ["cesium", "source"], formats=["exr"], float32=False)
     return out, res
 
 
@@ -100,7 +100,7 @@ def e5b9g9r9(words):
 def test_every_preset_wrote_its_files(bake_dir):
     out, res = bake_dir
     m = res["manifest"]
-    assert sorted(m["presets"]) == sorted(SIX + ["source"])
+    assert sorted(m["presets"]) == sorted(SIX + ["cesium", "source"])
     for name, entry in m["presets"].items():
         for role, f in entry["files"].items():
             assert (out / name / f).is_file(), (name, role)
@@ -184,6 +184,25 @@ def test_unity_dds_reads_with_openimageio_where_it_reads_dx10(bake_dir):
     assert f"{FACE} x {FACE}" in r.stdout or f"{FACE}x{FACE}" in r.stdout
 
 
+def test_cesium_ktx2_is_the_spec_chain_and_its_sh_is_filaments_form(bake_dir):
+    """The worked example of a new preset (one row of the preset table):
+    Cesium samples lod = r x maximum LOD, as SPEC's chain (so the levels are
+    SPEC's, unmirrored), and evaluates sphericalHarmonicCoefficients as
+    Filament's pre-scaled SH (czm_sphericalHarmonics), which the manifest gives."""
+    out, res = bake_dir
+    vk, scheme, n0, levels = ktx2_levels((out / "cesium" / "specular.ktx2").read_bytes())
+    assert (vk, scheme, n0, len(levels)) == (97, 0, FACE, 6)
+    for m, blob in enumerate(levels):
+        n = max(1, FACE >> m)
+        got = np.frombuffer(blob, np.float16).astype(np.float32).reshape(6, n, n, 4)
+        np.testing.assert_array_equal(got[..., :3], cross_cube(out / f"specular_{m}.exr"))
+    entry = res["manifest"]["presets"]["cesium"]
+    assert sorted(entry["files"]) == ["specular"]  # the diffuse light is the SH, passed to Cesium's API
+    k = np.array([0.282095, 0.325735, 0.325735, 0.325735, 0.273137, 0.273137, 0.078848, 0.273137, 0.136569])
+    sh = np.array(entry["sh"]["coefficients"]).reshape(9, 3).T
+    np.testing.assert_allclose(sh, res["sh9"] * k, rtol=1e-5, atol=1e-9)
+
+
 def test_filament_ktx1_carries_the_prescaled_sh(bake_dir):
     out, res = bake_dir
     data = (out / "filament" / "ibl.ktx").read_bytes()
@@ -263,7 +282,7 @@ def test_source_preset_keeps_the_lat_long(bake_dir):
 
 def test_presets_table_from_python():
     table = {p["name"]: p for p in ib.presets()}
-    assert list(table) == ["three", "khronos", "bevy", "filament", "babylon", "unity", "source"]
+    assert list(table) == ["three", "khronos", "bevy", "filament", "babylon", "unity", "cesium", "source"]
     assert table["three"]["mirror"] == "x" and table["three"]["curve"] == "filament"
     assert table["bevy"]["supercompression"] == "zstd" and table["bevy"]["format"] == "e5b9g9r9"
     np.testing.assert_allclose(table["unity"]["roughness_at_256"][:7],
@@ -280,7 +299,7 @@ def test_bad_presets_are_value_errors(tmp_path):
         ib.bake(img, None, presets=["three"])
     with pytest.raises(ValueError, match="power-of-two"):
         ib.bake(img, str(tmp_path / "b"), presets=["babylon"], face_size=24)
-    with pytest.raises(ValueError, match="list of preset names"):
+    with pytest.raises(ValueError, match=r"presets must be a list of names \(e.g. \['three'\]\)"):
         ib.bake(img, str(tmp_path / "c"), presets="three")
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 

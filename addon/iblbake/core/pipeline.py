@@ -14,6 +14,7 @@ import numpy as np
 
 from . import native
 from .needs import Needs
+from . import options as option_table
 from .settings import BakeSettings
 from .world import COLOR, RENDER, WorldSource
 
@@ -48,14 +49,8 @@ class BakeReport:
 def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
     """Keyword options of iblbake_core.bake() for these settings; the scene's
     needs switch outputs and specular levels off when auto_skip is on."""
-    opts = dict(face_size=settings.face_size, irradiance_size=settings.irradiance_size,
-                mip_count=settings.mip_count, lut_size=settings.lut_size, lut_model=settings.lut_model,
-                formats=list(settings.formats), png_encoding=settings.png_encoding,
-                exposure=float(settings.exposure), float32=settings.float32, eps=float(settings.eps),
-                threads=settings.threads, irradiance=settings.irradiance, specular=settings.specular,
-                lut=settings.lut, presets=list(settings.presets))
-    if settings.preview:
-        opts["preview"] = True
+    opts = {name: getattr(settings, name) for name in option_table.native_names()}
+    opts["threads"] = settings.threads
     reasons = {}
     # Engine presets need every level of their own chain: nothing is skipped for them.
     if settings.auto_skip and needs is not None and needs.analysed and not settings.presets:
@@ -158,6 +153,7 @@ def source_warnings(source: WorldSource) -> list:
     if source.path == COLOR and any(c < 0 for c in source.color):
         out.append("the world colour times Strength is negative (%s): baked as 0"
                    % ", ".join("%g" % c for c in source.color))
+    out += source.drivers
     return out
 
 

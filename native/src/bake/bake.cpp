@@ -13,10 +13,11 @@
 #include <limits>
 
 #include "iblbake/bake/lut_cache.h"
+#include "iblbake/bake/options.h"
 #include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/cube_sampling.h"
 #include "iblbake/ibl/irradiance.h"
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 
 namespace iblbake {
 
@@ -173,6 +174,13 @@ struct SinkGuard {
 };
 
 // The LUT, read from the cache when there (it depends on its settings alone).
+// A world whose every texel is 0 lights nothing: baked, but never silently
+// (a driver Blender did not run, a Strength of 0, an image of zeros).
+void warn_if_black(BakeResult& r) {
+    if (r.mean_radiance[0] == 0 && r.mean_radiance[1] == 0 && r.mean_radiance[2] == 0)
+        r.warnings.push_back("the world is black (every texel is 0): the bake lights nothing");
+}
+
 void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
     if (lut_cache) r.lut = lut_cache->load(key);
@@ -335,36 +343,28 @@ SpecularMethod specular_method_from_name(const std::string& name) {
     throw std::invalid_argument("unknown specular method '" + name + "' (expected hierarchical or fis)");
 }
 
+const char* sun_mode_name(SunMode m) { return m == SunMode::Split ? "split" : "off"; }
+
+SunMode sun_mode_from_name(const std::string& name) {
+    if (name == "off") return SunMode::Off;
+    if (name == "split") return SunMode::Split;
+    throw std::invalid_argument("unknown sun mode '" + name + "' (expected off or split)");
+}
+
 void BakeOptions::validate() const {
-    // 4096: a cube of 6 x 4096^2 RGB floats is 1.2 GB; its cross and files about as much again.
-    check(face_size >= 1 && face_size <= 4096, "face_size must be in 1..4096");
-    check(irradiance_size >= 1 && irradiance_size <= 4096, "irradiance_size must be in 1..4096");
-    check(mip_count >= 0 && mip_count <= 20, "mip_count must be in 0..20 (0 = full chain)");
-    check(lut_size >= 1 && lut_size <= 4096, "lut_size must be in 1..4096");
-    check(specular_quality.rings >= 1 && specular_quality.rings <= 256, "specular rings must be in 1..256");
-    check(specular_quality.min_phi >= 1 && specular_quality.max_phi >= specular_quality.min_phi &&
-              specular_quality.max_phi <= 4096,
+    // Each option's own range (bake/options.h: 4096 on a side, since a cube
+    // of 6 x 4096^2 RGB floats is 1.2 GB and its cross and files as much again).
+    for (const OptionRow<BakeOptions>& row : bake_option_rows()) check_option_range(row, *this);
+    // What ties options together.
+    check(specular_quality.max_phi >= specular_quality.min_phi,
           "specular phi counts must satisfy 1 <= min_phi <= max_phi <= 4096");
-    check(std::isfinite(specular_quality.lod_bias) && std::fabs(specular_quality.lod_bias) <= 16,
-          "lod_bias must be finite, in -16..16");
-    check(lut_quality.phi_points >= 1 && lut_quality.phi_points <= 256, "LUT phi points must be in 1..256");
-    check(lut_quality.u_points >= 1 && lut_quality.u_points <= 256, "LUT u points must be in 1..256");
-    check(lut_quality.row_nodes == 0 || (lut_quality.row_nodes >= 4 && lut_quality.row_nodes <= 4096),
+    check(lut_quality.row_nodes == 0 || lut_quality.row_nodes >= 4,
           "LUT row nodes must be 0 (every texel) or in 4..4096");
-    check(specular_base_face == 0 || (specular_base_face >= 1 && specular_base_face <= 4096 &&
-                                      (specular_base_face & (specular_base_face - 1)) == 0),
+    check((specular_base_face & (specular_base_face - 1)) == 0,
           "specular_base_face must be 0 (automatic) or a power of two up to 4096");
-    check(irradiance_bins >= 2 && irradiance_bins <= 4096 && (irradiance_bins & (irradiance_bins - 1)) == 0,
-          "irradiance_bins must be a power of two in 2..4096");
-    check(std::isfinite(hierarchical.eps) && hierarchical.eps >= 0.02 && hierarchical.eps <= 2.0,
-          "specular eps must be in 0.02..2 (the default 0.5 keeps every texel within about 0.4 %; error grows as eps^3 to eps^4)");
-    check(hierarchical.tile >= 0 && hierarchical.tile <= 256, "specular tile must be in 0..256 (0: automatic)");
-    check(irradiance_exact_face >= 1 && irradiance_exact_face <= 4096, "irradiance_exact_face must be in 1..4096");
-    check(std::isfinite(hot_threshold) && hot_threshold >= 1.0, "hot_threshold must be >= 1");
-    check(max_hot >= 0 && max_hot <= 1 << 20, "max_hot must be in 0..1048576");
-    check(threads >= 0 && threads <= 1024, "threads must be in 0..1024 (0: all cores)");
+    check((irradiance_bins & (irradiance_bins - 1)) == 0, "irradiance_bins must be a power of two in 2..4096");
     const int mips = resolved_mip_count();
-    check(first_level >= 0 && first_level < mips, "first_level must be in 0..mip_count-1");
+    check(first_level < mips, "first_level must be in 0..mip_count-1");
     check(last_level == -1 || (last_level >= first_level && last_level < mips),
           "last_level must be -1 (the last) or in first_level..mip_count-1");
     for (const SpecularLevelRequest& e : extra.specular)
@@ -388,6 +388,443 @@ Image compute_lut(int size, LutModel model, const LutQuality& q, int threads) {
 
 namespace {
 
+// A source's bake, stage by stage (bake_source() below runs them in order):
+// the options, the result being filled and what each stage leaves for the
+// next. Members are destroyed in reverse order: the irradiance task is waited
+// for first (it reads the bins and the hot points and writes r), then the
+// LUT task (it writes r), then the sink (it reads r's outputs).
+struct SourceBake {
+    SourceBake(ImageView source_view, Image* owned_pixels, const BakeOptions& options, const ProgressFn& progress_fn,
+               LutCache* lut_cache, OutputSink* output_sink)
+        : o(options), progress(progress_fn), sink(output_sink), view(source_view), owned(owned_pixels),
+          owned_source(owned_pixels != nullptr), guard{output_sink}, clock(r),
+          luts(r, options, lut_cache, output_sink) {}
+
+    void report(const std::string& stage, double f) const {
+        if (progress && !progress(stage, f)) throw Cancelled();
+    }
+    void advance(double w) { done += w / w_total; }
+    void skip(const char* what) { r.skipped.push_back(skip_reason(o, what, "disabled by option")); }
+    // Outputs are final once made: scaled back (the overflow guard; a result
+    // past the float range, a world of 3.4e38 convolved, saturates at the
+    // largest float, counted) and SPEC's handed to the sink, which may start
+    // writing them at once.
+    void rescale(FloatBuffer& px) { saturated += scale_back(px, scale_exp); }
+    void finish_level(const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method);
+
+    const BakeOptions& o;
+    const ProgressFn& progress;
+    OutputSink* sink;
+    ImageView view;           // the source as given; cleaned by sanitize()
+    Image* owned;             // the same pixels when this bake may change and free them; null once freed
+    const bool owned_source;  // else the caller's pixels are read in place (a numpy array)
+
+    BakeResult r;
+    const SinkGuard guard;  // destroyed before r: what the sink reads outlives it
+    StageClock clock;
+    // Rough share of the work per stage, for the progress bar.
+    const double w_irr = o.irradiance || o.extra.irradiance ? 0.15 : 0.0, w_lut = o.lut ? 0.25 : 0.0;
+    const double w_spec = o.specular || !o.extra.specular.empty() ? 0.6 : 0.0;
+    const double w_total = 0.05 + w_irr + w_spec + w_lut;
+    double done = 0.0;
+    LutTask luts;
+    const bool want_irr = o.irradiance || o.extra.irradiance;
+    const bool fis = o.specular_method == SpecularMethod::Fis;
+
+    // scan() and sanitize(): the one pass over the source, and its cleaning.
+    SourceSummary summary;
+    ImageView scanned;   // the source the summary describes (unless refreshed)
+    int scale_exp = 0;   // the overflow guard: the source was divided by 2^scale_exp
+    Image copy;          // a cleaned copy of a source not owned
+    std::vector<float> clean_rows;
+    std::vector<const float*> row_table;
+    bool summary_refreshed = false;  // the summary's changed rows (cleaned, sun-free) were summarized again
+    ImageView source;                // the cleaned source (turned by orient())
+    Image oriented;                  // orient(): the source turned about the up axis
+    std::vector<float> sun_rows;     // split_sun(): the changed rows of a source not owned
+    std::vector<const float*> sun_row_table;
+    // sh9(): the grid the integrals run on.
+    Image resampled;
+    ImageView integrand;
+    bool summary_holds = false;  // the summary describes the integrand
+    // plan_levels() .. specular_levels().
+    int finest_bins = 2;
+    std::vector<LevelJob> jobs;
+    double r1 = 0.0;  // the smallest positive roughness; 0: no level needs the integrators
+    size_t saturated = 0;
+    HotSplit split;
+    BinTree tree;
+    bool irr_from_tree = false;
+    std::vector<Bin> irr_bins;
+    // The irradiance's own task (start_irradiance(), join_irradiance()).
+    tbb::task_group irr_task;
+    std::exception_ptr irr_error;
+    double irr_seconds = 0.0;
+    size_t irr_saturated = 0;
+    const GroupWait irr_wait{irr_task};  // last: destroyed first
+};
+
+void SourceBake::finish_level(const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method) {
+    rescale(level.pixels);
+    if (job.spec_level >= 0) {
+        r.specular.push_back(std::move(level));
+        r.specular_levels.push_back(job.spec_level);
+        r.roughness.push_back(job.roughness);
+        r.samples_per_texel.push_back(samples);
+        r.specular_methods.push_back(method);
+        if (sink) sink->cube("specular_" + std::to_string(job.spec_level), r.specular.back());
+    } else {
+        r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method});
+    }
+    advance(w_spec / double(jobs.size()));
+    report("specular", done);
+}
+
+// The scan, the SH9 projection and the hot split's row sums in one pass over
+// the source; the last two are of the source as it is, used unless cleaning
+// or the overflow guard changes it (sanitize()).
+void scan(SourceBake& b) {
+    BakeResult& r = b.r;
+    option_warnings(r, b.o);
+    if (b.view.width != 2 * b.view.height)
+        r.warnings.push_back("the source is " + std::to_string(b.view.width) + " x " + std::to_string(b.view.height) +
+                             ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
+    b.report("reading source", 0.0);
+    b.summary = summarize_source(b.view);
+    b.scanned = b.view;
+    r.bad_input = b.summary.scan.bad;
+    if (b.o.strict && r.bad_input.any())
+        throw BadInputError("source has " + std::to_string(r.bad_input.pixels) + " bad pixels (" +
+                            std::to_string(r.bad_input.nan) + " NaN, " + std::to_string(r.bad_input.inf) + " Inf, " +
+                            std::to_string(r.bad_input.negative) + " negative values)");
+    // Radiance far beyond what any real HDRI holds (finite floats up to
+    // 3.4e38) would overflow the float sums: bring the maximum below 2^64 by
+    // an exact power of two and scale the outputs back at the end.
+    b.scale_exp = overflow_guard_exponent(b.summary.scan.max_value);
+}
+
+// Bad texels to 0 and the overflow guard's scaling: in place when the bake
+// owns the pixels, else in a copy (of the bad rows alone when that is all).
+void sanitize(SourceBake& b) {
+    const SourceScan& scan = b.summary.scan;
+    const bool bad = b.r.bad_input.any();
+    if (bad && b.scale_exp == 0 && !b.owned) {
+        b.view = sanitized_view(b.view, scan, b.clean_rows, b.row_table);  // copies the bad rows alone
+    } else if (bad || b.scale_exp != 0) {
+        if (!b.owned) {
+            b.copy = Image(b.view.width, b.view.height);
+            std::copy(b.view.data, b.view.data + b.view.value_count(), b.copy.pixels.begin());
+            b.owned = &b.copy;
+        }
+        clean_bad_rows(*b.owned, scan);
+        if (b.scale_exp != 0)
+            for (float& v : b.owned->pixels) v = std::ldexp(v, -b.scale_exp);
+        b.view = *b.owned;
+    }
+    // Cleaning changed the bad rows alone: their sums again (a few rows, not
+    // the whole source's two further passes).
+    b.summary_refreshed = bad && b.scale_exp == 0;
+    if (b.summary_refreshed) refresh_summary_rows(b.summary, b.view, scan.bad_rows);
+    b.source = b.view;
+    b.clock.done("sanitize");
+}
+
+bool same_pixels(const ImageView& a, const ImageView& b) { return a.data == b.data && a.rows == b.rows; }
+
+// The world turned about its up axis (option `rotation`), as Blender's
+// Mapping node (Point, Z) turns an Environment Texture: direction d of the
+// result shows L(Rz d) of the cleaned source (ibl/source.h's remap_latlong).
+// The turned image is the bake's own from here on (an owned source is freed
+// at once), and the scan's summary no longer describes it.
+void orient(SourceBake& b) {
+    if (b.o.rotation == 0.0) return;
+    const double a = b.o.rotation * kPi / 180.0, c = std::cos(a), s = std::sin(a);
+    b.oriented = remap_latlong(b.source, {c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0}, {0.0, 0.0, 0.0});
+    if (b.owned) FloatBuffer().swap(b.owned->pixels);
+    b.owned = &b.oriented;
+    b.view = b.source = b.oriented;
+    b.scanned = ImageView();
+    b.summary_refreshed = false;
+    b.clock.done("orient");
+}
+
+
+// The sun as a light (option `sun`, ibl/sun.h): found in the cleaned,
+// turned source, whose texels it covered are replaced by the sky behind it;
+// every stage after this one reads the sun-free source. A source this bake
+// owns is changed in place; one it does not gets copies of the changed rows
+// (as sanitize() does). The scan's summary, when it described the source,
+// is brought up to date for those rows alone.
+void split_sun_stage(SourceBake& b) {
+    if (b.o.sun != SunMode::Split) return;
+    b.report("sun", b.done);
+    SunSplit split = split_sun(b.source);
+    b.r.sun = split.light;
+    if (!split.texels.empty()) {
+        const bool described = b.scale_exp == 0 && (b.summary_refreshed || same_pixels(b.source, b.scanned));
+        if (b.owned) apply_sun_split(*b.owned, split);
+        else b.view = b.source = sun_free_view(b.source, split, b.sun_rows, b.sun_row_table);
+        if (described) {
+            refresh_summary_rows(b.summary, b.source, split.rows);
+            b.summary_refreshed = true;
+        }
+    }
+    b.clock.done("sun");
+}
+
+// The grid the integrals run on, and the SH9 of the radiance on it.
+void sh9(SourceBake& b) {
+    BakeResult& r = b.r;
+    const ImageView& source = b.source;
+    // The bins integrate SPEC's bilinear L exactly, whatever the source's
+    // size. Filtered importance sampling (`fis`) and the hot split read
+    // texel-constant radiance instead: for them a source coarser than 512
+    // across is first resampled from L onto a finer grid.
+    if (b.fis && (source.width < 512 || source.height < 256))
+        b.resampled = resample_latlong(source, std::max(source.width, 512), std::max(source.height, 256));
+    b.integrand = b.resampled.width > 0 ? ImageView(b.resampled) : source;
+    r.integration_width = b.integrand.width;
+    r.integration_height = b.integrand.height;
+    // The summary describes the integrand when that is the source unchanged
+    // or cleaned (its bad rows summarized again in sanitize()).
+    b.summary_holds = b.scale_exp == 0 && same_pixels(b.integrand, b.summary_refreshed ? source : b.scanned);
+    r.sh9 = b.summary_holds ? b.summary.sh9 : project_sh9(b.integrand);
+    // The mean is the constant band: L_00 = integral of L / (2 sqrt(pi)).
+    for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
+    b.clock.done("sh9");
+}
+
+// The levels to integrate and the finest bins they need.
+void plan_levels(SourceBake& b) {
+    b.finest_bins = finest_bin_width(b.o);
+    b.jobs = level_jobs(b.o);
+    b.r1 = smallest_positive_roughness(b.jobs);
+    size_t spec_jobs = 0;
+    for (const LevelJob& j : b.jobs) spec_jobs += j.spec_level >= 0;
+    b.r.specular.reserve(spec_jobs);  // the sink holds references into it
+}
+
+// The r = 0 levels (mip 0 by default) first: they read the source itself,
+// and the largest file's writing then overlaps everything that follows.
+void mirror_levels(SourceBake& b) {
+    bool mirrored = false;
+    for (const LevelJob& job : b.jobs) {
+        if (job.roughness != 0.0) continue;
+        b.report("specular", b.done);
+        Cubemap level(job.face_size, Uninitialized{});  // every texel written
+        specular_mirror(level, b.source);
+        b.finish_level(job, std::move(level), 1, "bilinear source lookup");
+        mirrored = true;
+    }
+    if (mirrored) b.clock.done("specular_mip0");
+}
+
+// The hot texels, integrated exactly by the irradiance and FIS.
+void hot_split(SourceBake& b) {
+    if (b.want_irr || (b.r1 > 0.0 && b.fis)) {
+        b.split = split_hot(b.integrand, b.o.hot_threshold, b.o.max_hot, b.summary_holds ? &b.summary.hot : nullptr);
+        b.r.hot_texels = b.split.hot.size();
+        b.r.hot_threshold = b.split.threshold;
+        b.r.hot_power_fraction = b.split.hot_power_fraction;
+        b.clock.done("hot_split");
+    }
+    b.advance(0.05);
+}
+
+// The hierarchical specular's bin tree, built first: its coarser exact bins
+// are the irradiance's too, which then needs no pass of its own.
+void bin_tree(SourceBake& b) {
+    const bool need_tree = !b.fis && b.r1 > 0.0;
+    b.irr_from_tree = b.want_irr && need_tree && b.o.irradiance_bins <= b.finest_bins / 4;
+    if (!need_tree) return;
+    b.report("specular", b.done);
+    b.r.specular_base_face = b.finest_bins;
+    BinTreeOptions tree_options;
+    tree_options.channel_mean = b.r.mean_radiance.data();  // the integrand's: the chroma scores' floor
+    b.tree = build_bin_tree(b.integrand, b.finest_bins, b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins,
+                            tree_options);
+    b.clock.done("bin_tree");
+}
+
+// On the irradiance's own task: the convolution of the bins and hot points.
+void convolve_irradiance(SourceBake& b, int bw, int bh) {
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+        const BinGroups groups = group_bins(b.irr_bins, bw, bh);
+        Cubemap irr(b.o.irradiance_size);
+        irradiance_convolve(irr, groups, b.split.hot, b.o.irradiance_exact_face);
+        b.irr_saturated = scale_back(irr.pixels, b.scale_exp);
+        if (b.o.irradiance) {
+            b.r.irradiance = std::move(irr);
+            if (b.sink) b.sink->cube("irradiance", *b.r.irradiance);
+        } else {
+            b.r.extra_irradiance = std::move(irr);
+        }
+    } catch (...) {
+        b.irr_error = std::current_exception();
+    }
+    b.irr_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The irradiance convolution runs beside the specular levels (it reads only
+// the bins and the hot points; its own task fills the gaps the levels leave
+// between them); join_irradiance() waits for it.
+void start_irradiance(SourceBake& b) {
+    if (b.want_irr) {
+        b.report("irradiance", b.done);
+        const int bw = b.o.irradiance_bins, bh = b.o.irradiance_bins / 2;
+        // What reads the source is done here: the levels below may free it.
+        if (b.irr_from_tree) remove_hot(b.irr_bins, bw, bh, b.integrand.width, b.integrand.height, b.split);
+        else b.irr_bins = reduce_rest_to_bins(b.integrand, b.split, bw, bh);
+        b.irr_task.run([&b, bw, bh] { convolve_irradiance(b, bw, bh); });
+        b.clock.done("irradiance_start");
+    }
+    if (!b.o.irradiance) b.skip("irradiance");
+}
+
+// FIS: the rest (the source less its hot texels) as a cube pyramid. The rest
+// cube must resolve the narrowest lobe (about alpha_1 radians wide) but need
+// not be finer than the source.
+CubePyramid rest_pyramid(SourceBake& b) {
+    const BakeOptions& o = b.o;
+    double rf = o.resolved_mip_count() > 1 ? o.mip_roughness(1) : 1.0;
+    for (const SpecularLevelRequest& e : o.extra.specular)
+        if (e.roughness > 0.0) rf = std::min(rf, e.roughness);
+    const double a1 = rf * rf;
+    int base = o.specular_base_face;
+    if (base == 0)
+        base = std::clamp(pow2_ceil(4.0 / a1), 8, std::clamp(pow2_ceil(b.integrand.width / 4.0), 8, 2048));
+    b.r.specular_base_face = base;
+    Cubemap cube(base);
+    const int ss = std::clamp(int(std::ceil(b.integrand.width / (kPi * base))), 1, 4);
+    latlong_to_cube(cube, rest_image(b.integrand, b.split), ss);  // on the integration grid
+    CubePyramid pyramid = build_pyramid(cube);
+    b.clock.done("specular_pyramid");
+    return pyramid;
+}
+
+// Past the r = 0 levels only the tree is read: a source this bake owns (the
+// CLI's, or a cleaned copy) is freed (or kept for an export that asked for
+// it) before the rest of the chain is made and written.
+void free_source(SourceBake& b) {
+    if (b.o.extra.keep_source) b.r.source = std::move(*b.owned);
+    FloatBuffer().swap(b.owned->pixels);
+    b.owned = nullptr;
+    b.luts.start();  // its memory in place of the source's
+}
+
+// Levels at nearby roughness in one pass (shared bins and loads).
+void integrate_group(SourceBake& b, const std::vector<size_t>& group, const std::string& method_h) {
+    const int n = b.jobs[group[0]].face_size;
+    std::vector<Cubemap> levels;
+    for (size_t k = 0; k < group.size(); ++k) levels.emplace_back(n, Uninitialized{});  // every texel written
+    std::vector<SpecularGroupTarget> targets;
+    for (size_t k = 0; k < group.size(); ++k) targets.push_back({&levels[k], b.jobs[group[k]].roughness});
+    const double bins = specular_hierarchical_group(targets, b.tree, b.o.hierarchical);
+    std::string with;
+    for (size_t g : group) with += (with.empty() ? "" : ", ") + std::to_string(b.jobs[g].roughness);
+    for (size_t k = 0; k < group.size(); ++k)
+        b.finish_level(b.jobs[group[k]], std::move(levels[k]), size_t(std::lround(bins)),
+                       method_h + ", one pass for roughness " + with);
+}
+
+// One level alone: the hierarchical sum over the tree, or FIS of the pyramid.
+void integrate_level(SourceBake& b, const LevelJob& job, const CubePyramid& pyramid, const std::string& method_h) {
+    Cubemap level(job.face_size, Uninitialized{});  // every texel written
+    size_t samples = 0;
+    std::string method;
+    if (!b.fis) {
+        samples = size_t(std::lround(specular_hierarchical(level, b.tree, job.roughness, b.o.hierarchical)));
+        method = method_h;
+    } else {
+        samples = specular_prefilter(level, pyramid, b.split.hot, job.roughness, b.o.specular_quality) +
+                  b.split.hot.size();
+        method = "filtered importance sampling + hot texels";
+    }
+    b.finish_level(job, std::move(level), samples, method);
+}
+
+// Every level at r > 0, group by group; the LUTs start beside them.
+void integrate_specular(SourceBake& b) {
+    b.report("specular", b.done);
+    CubePyramid pyramid;
+    if (b.fis) pyramid = rest_pyramid(b);
+    else b.r.specular_kernel = specular_kernel_isa();
+    const std::string method_h = "hierarchical second-order kernel sum over exact bins (eps " +
+                                 std::to_string(b.o.hierarchical.eps).substr(0, 4) + ", " + b.r.specular_kernel +
+                                 " kernel)";
+    if (b.fis || !b.owned) b.luts.start();  // no source to free first
+    for (const std::vector<size_t>& group : level_groups(b.jobs, !b.fis)) {
+        const LevelJob& job = b.jobs[group[0]];
+        if (job.roughness == 0.0) continue;  // made by mirror_levels()
+        if (!b.fis && b.owned) free_source(b);
+        if (group.size() > 1) integrate_group(b, group, method_h);
+        else integrate_level(b, job, pyramid, method_h);
+    }
+    b.clock.done("specular");
+}
+
+// The specular levels at r > 0, and what is skipped of SPEC's chain.
+void specular_levels(SourceBake& b) {
+    if (b.r1 > 0.0) integrate_specular(b);
+    if (b.o.specular) skip_levels(b.r, b.o);
+    else b.skip("specular");
+}
+
+void join_irradiance(SourceBake& b) {
+    if (!b.want_irr) return;
+    b.irr_task.wait();
+    if (b.irr_error) std::rethrow_exception(b.irr_error);
+    b.saturated += b.irr_saturated;
+    b.r.timings.emplace_back("irradiance", b.irr_seconds);  // its own time, beside the levels
+    b.advance(b.w_irr);
+    b.clock.done("irradiance_wait");  // what the bake waited for it after the levels
+}
+
+void join_luts(SourceBake& b) {
+    if (b.o.lut) b.report("brdf_lut", b.done);
+    const double lut_seconds = b.luts.join();
+    if (b.o.lut) {
+        b.clock.done("brdf_lut_wait");                      // what the bake waited for it
+        b.r.timings.emplace_back("brdf_lut", lut_seconds);  // its own time, beside the rest
+        b.advance(b.w_lut);
+    } else {
+        b.skip("brdf_lut");
+    }
+}
+
+// The source kept for an export, the overflow guard undone, the last checks.
+void finish_and_check(SourceBake& b) {
+    BakeResult& r = b.r;
+    // A source kept for an export that was not moved out by free_source()
+    // (not owned, or never freed) is copied from the cleaned view.
+    if (b.o.extra.keep_source && !r.source) {
+        r.source = Image(b.source.width, b.source.height);
+        for (int y = 0; y < b.source.height; ++y)
+            std::copy_n(b.source.at(0, y), size_t(b.source.width) * 3, r.source->at(0, y));
+    }
+    if (b.scale_exp != 0) {
+        if (r.source) b.rescale(r.source->pixels);
+        for (auto& ch : r.sh9)
+            for (double& v : ch) v = std::ldexp(v, b.scale_exp);
+        for (double& v : r.mean_radiance) v = std::ldexp(v, b.scale_exp);
+        r.hot_threshold = std::ldexp(r.hot_threshold, b.scale_exp);
+        if (r.sun) {
+            for (double& v : r.sun->illuminance) v = std::ldexp(v, b.scale_exp);
+            for (double& v : r.sun->removed_power) v = std::ldexp(v, b.scale_exp);
+            for (double* v : {&r.sun->peak_luminance, &r.sun->ring_luminance, &r.sun->rival_luminance})
+                *v = std::ldexp(*v, b.scale_exp);
+        }
+    }
+    if (b.saturated)
+        r.warnings.push_back(std::to_string(b.saturated) +
+                             " output values exceeded the float range and were saturated at 3.4e38");
+    warn_if_black(r);
+    check_outputs(r, !b.owned_source);
+    if (b.sink) b.sink->wait();
+    b.report("done", 1.0);
+}
+
 // The bake of `view`. `owned`, when given, holds the same pixels and may be
 // cleaned in place; otherwise a source that needs cleaning is copied first
 // and a clean one is read where it lies.
@@ -395,310 +832,23 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
                        LutCache* lut_cache, OutputSink* sink) {
     o.validate();
     if (view.width < 1 || view.height < 1) throw std::invalid_argument("source image is empty");
-    const bool owned_source = owned != nullptr;
     return in_arena(o.threads, [&] {
-        BakeResult r;
-        const SinkGuard guard{sink};  // destroyed before r: what the sink reads outlives it
-        StageClock clock(r);
-        auto report = [&](const std::string& stage, double f) {
-            if (progress && !progress(stage, f)) throw Cancelled();
-        };
-        const int mips = o.resolved_mip_count();
-        // Rough share of the work per stage, for the progress bar.
-        const double w_irr = o.irradiance || o.extra.irradiance ? 0.15 : 0.0, w_lut = o.lut ? 0.25 : 0.0;
-        const double w_spec = o.specular || !o.extra.specular.empty() ? 0.6 : 0.0;
-        const double w_total = 0.05 + w_irr + w_spec + w_lut;
-        double done = 0.0;
-        auto advance = [&](double w) { done += w / w_total; };
-
-        option_warnings(r, o);
-        LutTask luts(r, o, lut_cache, sink);
-        if (view.width != 2 * view.height)
-            r.warnings.push_back("the source is " + std::to_string(view.width) + " x " + std::to_string(view.height) +
-                                 ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
-        report("reading source", 0.0);
-        // The scan, the SH9 projection and the hot split's row sums in one
-        // pass over the source; the last two are of the source as it is,
-        // used unless cleaning or the overflow guard changes it below.
-        SourceSummary summary = summarize_source(view);
-        const ImageView scanned = view;
-        const SourceScan& scan = summary.scan;
-        r.bad_input = scan.bad;
-        if (o.strict && r.bad_input.any())
-            throw BadInputError("source has " + std::to_string(r.bad_input.pixels) + " bad pixels (" +
-                                std::to_string(r.bad_input.nan) + " NaN, " + std::to_string(r.bad_input.inf) +
-                                " Inf, " + std::to_string(r.bad_input.negative) + " negative values)");
-        // Radiance far beyond what any real HDRI holds (finite floats up to
-        // 3.4e38) would overflow the float sums: bring the maximum below 2^64
-        // by an exact power of two and scale the outputs back at the end.
-        const int scale_exp = overflow_guard_exponent(scan.max_value);
-        Image copy;
-        std::vector<float> clean_rows;
-        std::vector<const float*> row_table;
-        if (r.bad_input.any() && scale_exp == 0 && !owned) {
-            view = sanitized_view(view, scan, clean_rows, row_table);  // copies the bad rows alone
-        } else if (r.bad_input.any() || scale_exp != 0) {
-            if (!owned) {
-                copy = Image(view.width, view.height);
-                std::copy(view.data, view.data + view.value_count(), copy.pixels.begin());
-                owned = &copy;
-            }
-            clean_bad_rows(*owned, scan);
-            if (scale_exp != 0)
-                for (float& v : owned->pixels) v = std::ldexp(v, -scale_exp);
-            view = *owned;
-        }
-        // Cleaning changed the bad rows alone: their sums again (a few rows,
-        // not the whole source's two further passes).
-        const bool summary_refreshed = r.bad_input.any() && scale_exp == 0;
-        if (summary_refreshed) refresh_summary_rows(summary, view, scan.bad_rows);
-        const ImageView source = view;
-        clock.done("sanitize");
-
-        // The bins integrate SPEC's bilinear L exactly, whatever the source's
-        // size. Filtered importance sampling (`fis`) and the hot split read
-        // texel-constant radiance instead: for them a source coarser than 512
-        // across is first resampled from L onto a finer grid.
-        const int finest_bins = finest_bin_width(o);
-        Image resampled;
-        if (o.specular_method == SpecularMethod::Fis && (source.width < 512 || source.height < 256))
-            resampled = resample_latlong(source, std::max(source.width, 512), std::max(source.height, 256));
-        const ImageView integrand = resampled.width > 0 ? ImageView(resampled) : source;
-        r.integration_width = integrand.width;
-        r.integration_height = integrand.height;
-        // The summary describes the integrand when that is the source unchanged
-        // or cleaned (its bad rows summarized again above).
-        const bool summary_holds =
-            scale_exp == 0 && (summary_refreshed ? integrand.data == source.data && integrand.rows == source.rows
-                                                 : integrand.data == scanned.data && integrand.rows == scanned.rows);
-        r.sh9 = summary_holds ? summary.sh9 : project_sh9(integrand);
-        // The mean is the constant band: L_00 = integral of L / (2 sqrt(pi)).
-        for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
-        clock.done("sh9");
-
-        const std::vector<LevelJob> jobs = level_jobs(o);
-        const double r1 = smallest_positive_roughness(jobs);  // 0: no level needs the integrators
-        const bool want_irr = o.irradiance || o.extra.irradiance;
-        const bool fis = o.specular_method == SpecularMethod::Fis;
-
-        // Outputs are final once made: scaled back (the overflow guard; a
-        // result past the float range, a world of 3.4e38 convolved, saturates
-        // at the largest float, counted) and SPEC's handed to the sink, which
-        // may start writing them at once.
-        size_t saturated = 0;
-        auto rescale = [&](FloatBuffer& px) { saturated += scale_back(px, scale_exp); };
-        size_t spec_jobs = 0;
-        for (const LevelJob& j : jobs) spec_jobs += j.spec_level >= 0;
-        r.specular.reserve(spec_jobs);  // the sink holds references into it
-        auto finish = [&](const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method) {
-            rescale(level.pixels);
-            if (job.spec_level >= 0) {
-                r.specular.push_back(std::move(level));
-                r.specular_levels.push_back(job.spec_level);
-                r.roughness.push_back(job.roughness);
-                r.samples_per_texel.push_back(samples);
-                r.specular_methods.push_back(method);
-                if (sink) sink->cube("specular_" + std::to_string(job.spec_level), r.specular.back());
-            } else {
-                r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method});
-            }
-            advance(w_spec / double(jobs.size()));
-            report("specular", done);
-        };
-
-        // The r = 0 levels (mip 0 by default) first: they read the source
-        // itself, and the largest file's writing then overlaps everything
-        // that follows.
-        bool mirrored = false;
-        for (const LevelJob& job : jobs) {
-            if (job.roughness != 0.0) continue;
-            report("specular", done);
-            Cubemap level(job.face_size, Uninitialized{});  // every texel written
-            specular_mirror(level, source);
-            finish(job, std::move(level), 1, "bilinear source lookup");
-            mirrored = true;
-        }
-        if (mirrored) clock.done("specular_mip0");
-
-        const bool need_split = want_irr || (r1 > 0.0 && fis);
-        HotSplit split;
-        if (need_split) {
-            split = split_hot(integrand, o.hot_threshold, o.max_hot, summary_holds ? &summary.hot : nullptr);
-            r.hot_texels = split.hot.size();
-            r.hot_threshold = split.threshold;
-            r.hot_power_fraction = split.hot_power_fraction;
-            clock.done("hot_split");
-        }
-        advance(0.05);
-
-        auto skip = [&](const char* what) { r.skipped.push_back(skip_reason(o, what, "disabled by option")); };
-
-        // The hierarchical specular's bin tree, built first: its coarser exact
-        // bins are the irradiance's too, which then needs no pass of its own.
-        const bool need_tree = !fis && r1 > 0.0;
-        const bool irr_from_tree = want_irr && need_tree && o.irradiance_bins <= finest_bins / 4;
-        BinTree tree;
-        std::vector<Bin> irr_bins;
-        if (need_tree) {
-            report("specular", done);
-            r.specular_base_face = finest_bins;
-            BinTreeOptions tree_options;
-            tree_options.channel_mean = r.mean_radiance.data();
-            tree = build_bin_tree(integrand, finest_bins, irr_from_tree ? &irr_bins : nullptr, o.irradiance_bins,
-                                  tree_options);
-            clock.done("bin_tree");
-        }
-
-        // The irradiance convolution runs beside the specular levels (it
-        // reads only the bins and the hot points; its own task filled the
-        // gaps the levels leave between them); joined below.
-        tbb::task_group irr_task;
-        const GroupWait irr_wait{irr_task};
-        std::exception_ptr irr_error;
-        double irr_seconds = 0.0;
-        size_t irr_saturated = 0;
-        if (want_irr) {
-            report("irradiance", done);
-            const int bw = o.irradiance_bins, bh = o.irradiance_bins / 2;
-            // What reads the source is done here: the levels below may free it.
-            if (irr_from_tree) remove_hot(irr_bins, bw, bh, integrand.width, integrand.height, split);
-            else irr_bins = reduce_rest_to_bins(integrand, split, bw, bh);
-            irr_task.run([&, bw, bh] {
-                const auto t0 = std::chrono::steady_clock::now();
-                try {
-                    const BinGroups groups = group_bins(irr_bins, bw, bh);
-                    Cubemap irr(o.irradiance_size);
-                    irradiance_convolve(irr, groups, split.hot, o.irradiance_exact_face);
-                    irr_saturated = scale_back(irr.pixels, scale_exp);
-                    if (o.irradiance) {
-                        r.irradiance = std::move(irr);
-                        if (sink) sink->cube("irradiance", *r.irradiance);
-                    } else {
-                        r.extra_irradiance = std::move(irr);
-                    }
-                } catch (...) {
-                    irr_error = std::current_exception();
-                }
-                irr_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            });
-            clock.done("irradiance_start");
-        }
-        if (!o.irradiance) skip("irradiance");
-        auto join_irradiance = [&] {
-            irr_task.wait();
-            if (irr_error) std::rethrow_exception(irr_error);
-            saturated += irr_saturated;
-            r.timings.emplace_back("irradiance", irr_seconds);  // its own time, beside the levels
-            advance(w_irr);
-        };
-
-        if (r1 > 0.0) {
-            report("specular", done);
-            CubePyramid pyramid;
-            if (fis) {
-                // The rest cube must resolve the narrowest lobe (about alpha_1
-                // radians wide) but need not be finer than the source.
-                double rf = mips > 1 ? o.mip_roughness(1) : 1.0;
-                for (const SpecularLevelRequest& e : o.extra.specular)
-                    if (e.roughness > 0.0) rf = std::min(rf, e.roughness);
-                const double a1 = rf * rf;
-                int base = o.specular_base_face;
-                if (base == 0)
-                    base = std::clamp(pow2_ceil(4.0 / a1), 8, std::clamp(pow2_ceil(integrand.width / 4.0), 8, 2048));
-                r.specular_base_face = base;
-                Cubemap cube(base);
-                const int ss = std::clamp(int(std::ceil(integrand.width / (kPi * base))), 1, 4);
-                latlong_to_cube(cube, rest_image(integrand, split), ss);  // on the integration grid
-                pyramid = build_pyramid(cube);
-                clock.done("specular_pyramid");
-            } else {
-                r.specular_kernel = specular_kernel_isa();
-            }
-            const std::string method_h = "hierarchical second-order kernel sum over exact bins (eps " +
-                                         std::to_string(o.hierarchical.eps).substr(0, 4) + ", " +
-                                         r.specular_kernel + " kernel)";
-            if (fis || !owned) luts.start();  // no source to free first
-            for (const std::vector<size_t>& group : level_groups(jobs, !fis)) {
-                const LevelJob& job = jobs[group[0]];
-                const int n = job.face_size;
-                const double rough = job.roughness;
-                if (rough == 0.0) continue;  // made above
-                if (!fis && owned) {
-                    // Past the r = 0 levels only the tree is read: a source this
-                    // bake owns (the CLI's, or a cleaned copy) is freed (or kept
-                    // for an export that asked for it) before the rest of the
-                    // chain is made and written.
-                    if (o.extra.keep_source) r.source = std::move(*owned);
-                    FloatBuffer().swap(owned->pixels);
-                    owned = nullptr;
-                    luts.start();  // its memory in place of the source's
-                }
-                if (group.size() > 1) {
-                    // Levels at nearby roughness in one pass (shared bins and loads).
-                    std::vector<Cubemap> levels;
-                    for (size_t k = 0; k < group.size(); ++k) levels.emplace_back(n, Uninitialized{});  // every texel written
-                    std::vector<SpecularGroupTarget> targets;
-                    for (size_t k = 0; k < group.size(); ++k) targets.push_back({&levels[k], jobs[group[k]].roughness});
-                    const double bins = specular_hierarchical_group(targets, tree, o.hierarchical);
-                    std::string with;
-                    for (size_t g : group) with += (with.empty() ? "" : ", ") + std::to_string(jobs[g].roughness);
-                    for (size_t k = 0; k < group.size(); ++k)
-                        finish(jobs[group[k]], std::move(levels[k]), size_t(std::lround(bins)),
-                               method_h + ", one pass for roughness " + with);
-                    continue;
-                }
-                Cubemap level(n, Uninitialized{});  // every texel written
-                size_t samples = 0;
-                std::string method;
-                if (!fis) {
-                    samples = size_t(std::lround(specular_hierarchical(level, tree, rough, o.hierarchical)));
-                    method = method_h;
-                } else {
-                    samples = specular_prefilter(level, pyramid, split.hot, rough, o.specular_quality) +
-                              split.hot.size();
-                    method = "filtered importance sampling + hot texels";
-                }
-                finish(job, std::move(level), samples, method);
-            }
-            clock.done("specular");
-        }
-        if (want_irr) {
-            join_irradiance();
-            clock.done("irradiance_wait");  // what the bake waited for it after the levels
-        }
-        if (o.specular) skip_levels(r, o);
-        else skip("specular");
-
-        if (o.lut) report("brdf_lut", done);
-        const double lut_seconds = luts.join();
-        if (o.lut) {
-            clock.done("brdf_lut_wait");                     // what the bake waited for it
-            r.timings.emplace_back("brdf_lut", lut_seconds);  // its own time, beside the rest
-            advance(w_lut);
-        } else {
-            skip("brdf_lut");
-        }
-        // A source kept for an export that was not moved out above (not owned,
-        // or never freed) is copied from the cleaned view.
-        if (o.extra.keep_source && !r.source) {
-            r.source = Image(source.width, source.height);
-            for (int y = 0; y < source.height; ++y)
-                std::copy_n(source.at(0, y), size_t(source.width) * 3, r.source->at(0, y));
-        }
-        if (scale_exp != 0) {
-            if (r.source) rescale(r.source->pixels);
-            for (auto& ch : r.sh9)
-                for (double& v : ch) v = std::ldexp(v, scale_exp);
-            for (double& v : r.mean_radiance) v = std::ldexp(v, scale_exp);
-            r.hot_threshold = std::ldexp(r.hot_threshold, scale_exp);
-        }
-        if (saturated)
-            r.warnings.push_back(std::to_string(saturated) +
-                                 " output values exceeded the float range and were saturated at 3.4e38");
-        check_outputs(r, !owned_source);
-        if (sink) sink->wait();
-        report("done", 1.0);
-        return r;
+        SourceBake b(view, owned, o, progress, lut_cache, sink);
+        scan(b);
+        sanitize(b);
+        orient(b);
+        split_sun_stage(b);
+        sh9(b);
+        plan_levels(b);
+        mirror_levels(b);
+        hot_split(b);
+        bin_tree(b);
+        start_irradiance(b);
+        specular_levels(b);
+        join_irradiance(b);
+        join_luts(b);
+        finish_and_check(b);
+        return std::move(b.r);
     });
 }
 
@@ -730,6 +880,10 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         };
         option_warnings(r, o);
         report("reading source", 0.0);
+        if (o.sun == SunMode::Split) {
+            r.sun = SunLight{};
+            r.sun->why = "no compact source: a plain colour lights evenly from every direction";
+        }
         Image one(1, 1);
         std::copy(rgb.begin(), rgb.end(), one.pixels.begin());
         r.bad_input = sanitize(one);
@@ -778,6 +932,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
         extra_lut_stage(r, o, lut_cache);
+        warn_if_black(r);
         check_outputs(r, false);
         if (sink) sink->wait();
         report("done", 1.0);

@@ -9,8 +9,8 @@
 #include <stdexcept>
 
 #include "iblbake/export/container.h"
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/io/image_io.h"
+#include "iblbake/util/parallel.h"
 
 namespace iblbake {
 

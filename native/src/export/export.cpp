@@ -7,21 +7,13 @@
 
 #include "iblbake/export/container.h"
 #include "iblbake/export/convert.h"
+#include "iblbake/export/sun.h"
 #include "iblbake/io/image_io.h"
 
 namespace iblbake {
 
 using nlohmann::json;
 namespace fs = std::filesystem;
-
-const Cubemap& baked_level(const BakeResult& r, int face_size, double roughness) {
-    for (size_t i = 0; i < r.specular.size(); ++i)
-        if (r.specular[i].size == face_size && same_roughness(r.roughness[i], roughness)) return r.specular[i];
-    for (const ExtraSpecularLevel& e : r.extra_specular)
-        if (e.face_size == face_size && same_roughness(e.roughness, roughness)) return e.cube;
-    throw std::logic_error("the bake holds no specular level of face " + std::to_string(face_size) + " at roughness " +
-                           std::to_string(roughness));
-}
 
 std::vector<double> sh_coefficients(const std::array<Sh9, 3>& sh) {
     std::vector<double> out;
@@ -72,9 +64,8 @@ std::string lod_text(const Preset& p, int levels, int n0) {
     return s;
 }
 
-json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& plan, const fs::path& root,
-                const std::string& writer, const LutFileMaker& lut_file) {
-    const Preset& p = plan.preset;
+json run_preset(const ExportInput& in, const fs::path& root, const std::string& writer, const LutFileMaker& lut_file) {
+    const Preset& p = in.preset;
     const fs::path dir = root / p.name;
     fs::create_directories(dir);
     json files = json::object(), written = json::array();
@@ -87,7 +78,7 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
     eo.format = p.format;
     eo.zstd = p.zstd;
     eo.writer = writer;
-    const std::array<Sh9, 3> sh = p.sh_mirrored ? mirror_sh9(r.sh9, p.mirror) : r.sh9;
+    const std::array<Sh9, 3> sh = p.sh_mirrored ? mirror_sh9(in.sh9, p.mirror) : in.sh9;
 
     json m;
     m["dir"] = p.name;
@@ -99,26 +90,27 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
     m["curve"] = curve_name(p.curve);
 
     if (p.container == Container::Source) {
-        if (!r.source) throw std::logic_error("the bake kept no source for the source preset");
-        io::write_exr((dir / "source.exr").string(), *r.source, io::ExrPixel::Float);
-        io::write_hdr((dir / "source.hdr").string(), *r.source);
+        if (!in.source) throw std::logic_error("no source given for the source preset");
+        io::write_exr((dir / "source.exr").string(), *in.source, io::ExrPixel::Float);
+        const uint64_t clamped = io::write_hdr((dir / "source.hdr").string(), *in.source);
         files["source"] = "source.exr";
         files["source_hdr"] = "source.hdr";
         written.push_back({{"file", "source.exr"}, {"encoding", "float"}});
-        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}});
+        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}, {"clamped_texels", clamped}});
         m["specular"] = json::array();
         m["lod_formula"] = nullptr;
-        m["source"] = {{"width", r.source->width}, {"height", r.source->height},
+        m["source"] = {{"width", in.source->width}, {"height", in.source->height},
                        {"orientation", "SPEC section 1 (Blender's equirectangular: centre column looks along +X)"}};
     } else {
         std::vector<const Cubemap*> cubes;
         json levels = json::array();
-        for (const PresetLevel& l : plan.levels) {
-            cubes.push_back(&baked_level(r, l.face_size, l.roughness));
-            levels.push_back({{"level", l.level}, {"face_size", l.face_size}, {"roughness", l.roughness}});
+        for (const ExportLevel& l : in.levels) {
+            if (!l.cube) throw std::logic_error("no cube given for level " + std::to_string(l.at.level) + " of preset " + p.name);
+            cubes.push_back(l.cube);
+            levels.push_back({{"level", l.at.level}, {"face_size", l.at.face_size}, {"roughness", l.at.roughness}});
         }
         m["specular"] = levels;
-        m["lod_formula"] = lod_text(p, int(plan.levels.size()), plan.base_face);
+        m["lod_formula"] = lod_text(p, int(in.levels.size()), in.base_face);
         const CubeChain chain{cubes, p.mirror};
         switch (p.container) {
             case Container::Ktx2: put("specular", "specular.ktx2", encode_ktx2(chain, eo)); break;
@@ -140,8 +132,8 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
             case Container::Source: break;
         }
         if (p.diffuse == DiffuseForm::Cube) {
-            const Cubemap* irr = r.irradiance ? &*r.irradiance : r.extra_irradiance ? &*r.extra_irradiance : nullptr;
-            if (!irr) throw std::logic_error("the bake made no irradiance for preset " + p.name);
+            const Cubemap* irr = in.irradiance;
+            if (!irr) throw std::logic_error("no irradiance given for preset " + p.name);
             const CubeChain d{{irr}, p.mirror};
             put("diffuse", "diffuse." + std::string(p.container == Container::Ktx2 ? "ktx2" : "dds"),
                 encoder_for(p.container)(d, eo));
@@ -149,11 +141,8 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
         }
     }
     if (p.lut) {
-        const Image* lut = nullptr;
-        if (r.lut && bo.lut_model == p.lut_model) lut = &*r.lut;
-        for (const auto& [model, img] : r.extra_luts)
-            if (model == p.lut_model) lut = &img;
-        if (!lut) throw std::logic_error("the bake made no " + std::string(lut_model_name(p.lut_model)) + " LUT");
+        const Image* lut = in.lut;
+        if (!lut) throw std::logic_error("no " + std::string(lut_model_name(p.lut_model)) + " LUT given for preset " + p.name);
         const fs::path path = dir / "brdf_lut.png";
         const std::function<void()> write = [&] {
             std::vector<float> v(lut->pixels.size());
@@ -171,6 +160,13 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
                     {"axes", {{"x", "NdotV = (i + 0.5) / N"}, {"y", "roughness = (j + 0.5) / N, j from the top row"}}}};
     } else {
         m["lut"] = nullptr;
+    }
+    if (in.sun && in.sun->found) {
+        const json light = engine_light(*in.sun, p);
+        io::write_text((dir / "sun.json").string(), light.dump(2) + "\n");
+        files["sun"] = "sun.json";
+        written.push_back({{"file", "sun.json"}, {"encoding", "json"}});
+        m["sun"] = light;
     }
     m["files"] = files;
     m["written"] = written;
@@ -192,11 +188,11 @@ json run_preset(const BakeResult& r, const BakeOptions& bo, const PresetPlan& pl
 
 }  // namespace
 
-std::vector<ExportJob> export_jobs(const BakeResult& r, const BakeOptions& bo, const std::vector<PresetPlan>& plans,
-                                   const fs::path& dir, const std::string& writer, const LutFileMaker& lut_file) {
+std::vector<ExportJob> export_jobs(const std::vector<ExportInput>& inputs, const fs::path& dir, const std::string& writer,
+                                   const LutFileMaker& lut_file) {
     std::vector<ExportJob> jobs;
-    for (const PresetPlan& plan : plans)
-        jobs.push_back({plan.preset.name, [&r, &bo, &plan, dir, writer, lut_file] { return run_preset(r, bo, plan, dir, writer, lut_file); }});
+    for (const ExportInput& in : inputs)
+        jobs.push_back({in.preset.name, [&in, dir, writer, lut_file] { return run_preset(in, dir, writer, lut_file); }});
     return jobs;
 }
 
@@ -205,10 +201,8 @@ json presets_json() {
     for (const Preset& p : preset_table()) {
         json formats = json::array();
         for (PixelFormat f : p.formats) formats.push_back(pixel_format_name(f));
-        const int levels_256 = preset_level_count(p, 256);
         json r256 = json::array();
-        if (p.container != Container::Source)
-            for (int m = 0; m < levels_256; ++m) r256.push_back(preset_roughness(p, m, levels_256, 256));
+        for (const PresetLevel& l : preset_chain(p, 256)) r256.push_back(l.roughness);
         out.push_back({{"name", p.name},
                        {"description", p.description},
                        {"container", container_name(p.container)},

@@ -5,10 +5,10 @@
 #include <memory>
 #include <utility>
 
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
+#include "iblbake/util/parallel.h"
 
 namespace iblbake {
 

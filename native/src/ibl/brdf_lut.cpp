@@ -5,10 +5,10 @@
 #include <stdexcept>
 #include <vector>
 
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/math/ggx.h"
 #include "iblbake/math/quadrature.h"
 #include "iblbake/math/spline.h"
+#include "iblbake/util/parallel.h"
 
 namespace iblbake {
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <utility>
 
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/ibl/source.h"
+#include "iblbake/util/parallel.h"
 
 namespace iblbake {
 

@@ -9,9 +9,9 @@
 #endif
 
 #include "iblbake/ibl/cube_sampling.h"
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
+#include "iblbake/util/parallel.h"
 #include "specular_kernel.h"
 
 namespace iblbake {

@@ -11,11 +11,11 @@
 #include <stdexcept>
 #include <string>
 
-#include "iblbake/ibl/parallel.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/fast_math.h"
 #include "iblbake/math/ggx.h"
 #include "iblbake/math/quadrature.h"
+#include "iblbake/util/parallel.h"
 #include "specular_kernel.h"
 
 namespace iblbake {

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <cstring>
 
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/util/parallel.h"
 
 namespace iblbake {
 

@@ -1,6 +1,7 @@
-// The bake pipeline: composes the integrators of ibl/ into SPEC.md's outputs.
-// compute_bake() does no I/O; write_bake() (bake/write.h) turns a result into
-// an output folder.
+// bake: composes the integrators of ibl/ into SPEC.md's outputs (this
+// header) and keeps the LUT cache (lut_cache.h), its only files. It knows no
+// preset, container or output folder: compute_bake() does no I/O, and
+// pipeline/ plans a bake, runs it and writes its files (pipeline/write.h).
 #pragma once
 #include <array>
 #include <functional>
@@ -13,6 +14,7 @@
 #include "iblbake/ibl/brdf_lut.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/ibl/specular.h"
+#include "iblbake/ibl/sun.h"
 #include "iblbake/image/image.h"
 
 namespace iblbake {
@@ -29,7 +31,13 @@ enum class SpecularMethod {
 const char* specular_method_name(SpecularMethod m);
 SpecularMethod specular_method_from_name(const std::string& name);  // throws std::invalid_argument
 
-// Outputs beyond SPEC's, for engine exports (export/plan.h fills this from
+// The sun as a light (issue 27, ibl/sun.h): off, or found, taken out of the
+// environment before anything is integrated, and handed back as a light.
+enum class SunMode { Off, Split };
+const char* sun_mode_name(SunMode m);
+SunMode sun_mode_from_name(const std::string& name);  // throws std::invalid_argument
+
+// Outputs beyond SPEC's, for engine exports (pipeline/plan.h fills this from
 // the presets asked for): more specular levels, each integrated at its own
 // roughness, and what else a preset writes.
 struct SpecularLevelRequest {
@@ -66,6 +74,14 @@ struct BakeOptions {
     double hot_threshold = 16.0;      // hot texels: above this times the mean ...
     int max_hot = 1024;               // ... and at most this many
     bool strict = false;              // bad texels are an error instead of 0
+    // The world turned about its up axis (Blender's Z), in degrees, as
+    // Blender's Mapping node (Point, rotation Z) turns an Environment Texture:
+    // direction d shows the source's L(Rz(rotation) d).
+    double rotation = 0.0;
+    // Split: the dominant compact light source (the sun) is found in the
+    // cleaned, turned source and replaced by the sky behind it; every output
+    // is baked from that sun-free source and the result holds the light.
+    SunMode sun = SunMode::Off;
     int threads = 0;                  // 0: all cores
     ExtraOutputs extra;               // for engine presets
     // The caller's warnings (an odd file, an ignored option, ...): the
@@ -113,7 +129,10 @@ struct BakeResult {
     std::vector<ExtraSpecularLevel> extra_specular;
     std::optional<Cubemap> extra_irradiance;  // when `irradiance` is off
     std::vector<std::pair<LutModel, Image>> extra_luts;
-    std::optional<Image> source;              // the cleaned source (keep_source)
+    std::optional<Image> source;              // the cleaned source (keep_source); sun-free with `sun`
+    // With SunMode::Split: the light (found or not, and why); the outputs
+    // above are the sun-free environment's.
+    std::optional<SunLight> sun;
     // Questionable input that was baked anyway (the manifest's `warnings`).
     std::vector<std::string> warnings;
 };
@@ -133,7 +152,7 @@ class LutCache;
 
 // Receives each output as soon as the bake has made it ("irradiance",
 // "specular_<m>", the LUT), final (scaled back, never changed again), so
-// that writing it (bake/write.h's BakeWriter) overlaps the rest of the bake.
+// that writing it (pipeline/write.h's BakeWriter) overlaps the rest of the bake.
 // The references stay valid until wait() returns; the bake calls wait()
 // before it returns or throws.
 class OutputSink {

@@ -18,10 +18,27 @@ enum class DiffuseForm {
     TopLevel,     // the specular chain's top level (r = 1: Pre = Irr)
     ShKtx1,       // Filament's pre-scaled SH in the KTX1 `sh` key
     Polynomial,   // Babylon's spherical polynomial in the .env header
+    ShManifest,   // the manifest's SH, handed to the engine's API (Cesium)
     Engine,       // the engine computes its own
 };
 // SH the manifest gives for the preset.
 enum class ShForm { None, Raw, Filament, BabylonPolynomial };
+
+// How the engine takes a directional light (the sun of issue 27, export/sun.h).
+struct PresetLight {
+    // The engine's world axes against SPEC's engine space (section 2): a
+    // left-handed engine's glTF importer mirrors one axis (Babylon z, Unity
+    // x). Not the cube's storage mirror: three and Bevy store their cubes
+    // mirrored to undo their samplers' flip, and their worlds are SPEC's.
+    Mirror world = Mirror::None;
+    // intensity = scale x E of the colour's brightest channel (colour x
+    // intensity = the illuminance per channel when scale is 1); 1 / pi where
+    // the engine's diffuse BRDF leaves out Lambert's 1 / pi.
+    double intensity_scale = 1.0;
+    std::string units;  // what the intensity is, in the engine's words
+    std::string api;    // how to make the light, with its fields named
+    bool verified = false;  // rendered against the environment in the engine tests
+};
 
 struct Preset {
     std::string name, description;
@@ -40,6 +57,7 @@ struct Preset {
     LutModel lut_model = LutModel::HeightCorrelated;
     bool skybox = false;       // writes a level-0-only cube as well (Filament)
     std::string lod_formula, diffuse_note, notes;
+    PresetLight light;
 };
 
 // The table (docs/export.md), in its documented order.
@@ -62,10 +80,23 @@ const char* sh_form_name(ShForm s);
 
 // Levels of the preset's chain for base face n0: n0 down to `smallest` (at
 // least one level).
+// Throws std::invalid_argument when a face of `face_size` gives the preset's
+// chain fewer than two levels (three and filament stop at 16 px: at 16 they
+// would hold the mirror level alone).
+void check_preset_face_size(const Preset& p, int face_size);
 int preset_level_count(const Preset& p, int n0);
 // Perceptual roughness of level m of the preset's chain of `levels` levels
 // with base face n0 (the inverse of the engine's lod formula).
 double preset_roughness(const Preset& p, int m, int levels, int n0);
+
+// One level of a preset's chain.
+struct PresetLevel {
+    int level, face_size;
+    double roughness;
+};
+// The preset's chain for base face n0, level 0 first: face max(1, n0 >> m)
+// at preset_roughness(). Empty for the source preset (it writes no cube).
+std::vector<PresetLevel> preset_chain(const Preset& p, int n0);
 
 // The curves themselves (m of T = top level; exact inverses of the engines'
 // roughness -> lod mappings, ENGINES.md section 1).

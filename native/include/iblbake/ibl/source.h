@@ -1,3 +1,7 @@
+// ibl: the integrators (the source and its summaries, bins, irradiance,
+// specular, the BRDF LUT), each from images to cubes or tables. Above image/;
+// beside io/, which it never includes: no integrator reads or writes a file.
+//
 // The source environment: cleaning bad texels, lookups, the split into a
 // bounded "rest" and exactly-integrated "hot" texels, energy-exact reduction
 // to weighted points, SH projection. All directions returned are engine
@@ -34,6 +38,12 @@ SourceScan scan_source(ImageView img);
 
 // sanitize() with the scan done: cleans the scan's bad rows in place.
 void clean_bad_rows(Image& img, const SourceScan& scan);
+
+// A view of `img` whose rows `rows` (ascending) are copies in `store`, for
+// the caller to change (row k of the list at store + k * width * 3); every
+// other row is `img`'s own, through the view's row table `row_table`.
+ImageView view_with_copied_rows(ImageView img, const std::vector<int>& rows, std::vector<float>& store,
+                                std::vector<const float*>& row_table);
 
 // A view of `img` as sanitize() would leave it, without copying the image:
 // the scan's bad rows are copied into `store` and cleaned there, and the

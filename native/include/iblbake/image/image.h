@@ -1,3 +1,7 @@
+// image: images and cubes in memory, the cross layout and display
+// encodings. Above math/ and util/ only: it knows no integrator, no bake and
+// no file.
+//
 // Image types: a lat-long or 2-D RGB float image and a cube of six faces.
 // Plain storage, no I/O (that lives in io/).
 #pragma once

@@ -1,3 +1,6 @@
+// math: numbers and geometry (vectors, the cube and lat-long mappings, GGX,
+// SH, quadrature), the lowest room with util/: it includes no other.
+//
 // Small 3-vector used by the math layer. Header-only, no I/O.
 #pragma once
 #include <cmath>

@@ -1,5 +1,7 @@
-// One parallel-for for the whole library (TBB). Work items are independent
-// and each writes its own outputs, so results never depend on thread count.
+// util: generic helpers below every other room (they know no image, no
+// integrator, no file). Here the one parallel-for for the whole library
+// (TBB). Work items are independent and each writes its own outputs, so
+// results never depend on thread count.
 #pragma once
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

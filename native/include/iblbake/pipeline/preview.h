@@ -1,6 +1,10 @@
 // preview.png: a contact sheet of a bake to look at, drawn by our own code so
 // the CLI (--preview) and the Blender add-on make the same sheet. Pure: a
-// BakeResult in, an image out; writing it is io/'s (write_preview()).
+// BakeResult in, an image out; writing it is write.h's write_preview().
+// It lives in pipeline/, not image/: the sheet is a composition of a whole
+// bake (its levels, the LUT, spheres shaded through the split sum), and its
+// drawing helpers (a bitmap font, rectangles) serve nothing else, so an
+// input type of its own in image/ would only copy BakeResult's fields.
 //
 // Layout, top to bottom: the irradiance cross, the BRDF LUT and a diffuse
 // sphere; one row with every baked specular level's cross; a row of metal

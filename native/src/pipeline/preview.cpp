@@ -1,4 +1,4 @@
-#include "iblbake/image/preview.h"
+#include "iblbake/pipeline/preview.h"
 
 #include <algorithm>
 #include <cctype>

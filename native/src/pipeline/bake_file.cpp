@@ -1,4 +1,4 @@
-#include "iblbake/bake/bake_file.h"
+#include "iblbake/pipeline/bake_file.h"
 
 #include <tbb/task_group.h>
 
@@ -8,18 +8,17 @@
 #include <memory>
 #include <system_error>
 
-#include "iblbake/export/plan.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
+#include "iblbake/pipeline/write.h"
 
 namespace iblbake {
 
-nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakeOptions& bo,
-                         const WriteOptions& wo, const ProgressFn& progress, LutCache* lut_cache) {
-    bo.validate();
-    wo.validate();
-    plan_presets(bo, wo.presets);  // a preset the options cannot serve fails here, before any work
+nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakePlan& plan,
+                         const ProgressFn& progress, LutCache* lut_cache) {
+    // The plan checked the bake options and the presets when it was made.
+    plan.write.validate();
     io::check_replaceable(outdir, source_path);  // before any work: nothing to lose later
     const auto start = std::chrono::steady_clock::now();
     SourceInfo src;
@@ -31,11 +30,11 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     auto side_work = [&] {
         src.sha256 = io::sha256_file(source_path);
         // Every SPEC file is written as soon as its output is made, while the bake goes on.
-        writer = std::make_unique<BakeWriter>(outdir, wo, progress, lut_cache);
+        writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
     };
     io::LoadedImage loaded;
     std::error_code ec;
-    if (bo.threads == 1 || !std::filesystem::is_regular_file(source_path, ec)) {  // the reader refuses the rest
+    if (plan.bake.threads == 1 || !std::filesystem::is_regular_file(source_path, ec)) {  // the reader refuses the rest
         loaded = io::read_image(source_path);
         side_work();
     } else {
@@ -61,11 +60,12 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     src.height = loaded.image.height;
     src.linearised = loaded.linearised;
     const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    BakeOptions o = with_exports(bo, wo);  // the levels and files the presets need
+    // The plan's options with what the file's reading found odd (the result's first warnings).
+    BakeOptions o = plan.bake;
     o.warnings.insert(o.warnings.begin(), loaded.warnings.begin(), loaded.warnings.end());
     BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache, writer.get());
     r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
-    return writer->finish(r, o, src);
+    return writer->finish(r, src);
 }
 
 }  // namespace iblbake

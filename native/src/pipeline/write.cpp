@@ -1,4 +1,4 @@
-#include "iblbake/bake/write.h"
+#include "iblbake/pipeline/write.h"
 
 #include <algorithm>
 #include <chrono>
@@ -14,13 +14,15 @@
 
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/export/export.h"
-#include "iblbake/ibl/parallel.h"
+#include "iblbake/export/sun.h"
 #include "iblbake/image/encode.h"
-#include "iblbake/image/preview.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
 #include "iblbake/io/text.h"
+#include "iblbake/pipeline/exports.h"
+#include "iblbake/pipeline/preview.h"
+#include "iblbake/util/parallel.h"
 
 #ifndef IBLBAKE_VERSION
 #define IBLBAKE_VERSION "dev"
@@ -128,21 +130,10 @@ void write_preview(const std::string& path, const BakeResult& r) {
     io::write_png8(path, sheet.width, sheet.height, 4, rgba);
 }
 
-void WriteOptions::validate() const {
-    if (!exr && !png) throw std::invalid_argument("no output format: ask for exr, png or both");
-    if (!std::isfinite(exposure) || std::fabs(exposure) > 64.0f)
-        throw std::invalid_argument("exposure must be a finite number of stops in -64..64");
-    if (!manifest_extra.is_object()) throw std::invalid_argument("manifest_extra must be a JSON object");
-    for (size_t i = 0; i < presets.size(); ++i)
-        for (size_t k = 0; k < i; ++k)
-            if (presets[i].name == presets[k].name)
-                throw std::invalid_argument("preset '" + presets[i].name + "' is given twice");
-    if (!std::isfinite(rgbm_range) || !(rgbm_range > 0.0f) || rgbm_range > 1e6f)
-        throw std::invalid_argument("rgbm_range must be > 0 and finite");
-}
-
-json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOptions& wo, const SourceInfo& src,
-                   const json& encodings, double write_seconds) {
+json make_manifest(const BakeResult& r, const BakePlan& plan, const SourceInfo& src, const json& encodings,
+                   double write_seconds) {
+    const BakeOptions& bo = plan.bake;
+    const WriteOptions& wo = plan.write;
     json m;
     m["contract"] = 1;
     m["generator"] = "iblbake";
@@ -250,6 +241,12 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
                     {"max_hot", bo.max_hot},
                     {"first_level", bo.first_level},
                     {"last_level", bo.resolved_last_level()}};
+    if (bo.rotation != 0.0) m["options"]["rotation_degrees"] = bo.rotation;
+    // The sun as a light (issue 27): only when asked for, so other bakes' manifests are unchanged.
+    if (plan.sun_light) {
+        m["options"]["sun"] = sun_mode_name(bo.sun);
+        m["sun"] = r.sun ? sun_json(*r.sun) : json(nullptr);
+    }
     for (const auto& [key, value] : wo.manifest_extra.items()) {
         if (m.contains(key)) throw std::invalid_argument("manifest_extra may not replace the manifest's '" + key + "'");
         m[key] = value;
@@ -257,13 +254,9 @@ json make_manifest(const BakeResult& r, const BakeOptions& bo, const WriteOption
     return m;
 }
 
-BakeOptions with_exports(BakeOptions bo, const WriteOptions& wo) {
-    bo.extra = extra_outputs(bo, plan_presets(bo, wo.presets));
-    return bo;
-}
-
 struct BakeWriter::Impl {
-    WriteOptions wo;
+    const BakePlan& plan;
+    const WriteOptions& wo;  // plan.write
     io::StagingDir staging;
     ProgressFn progress;
     LutCache* lut_cache;
@@ -276,8 +269,8 @@ struct BakeWriter::Impl {
     std::mutex poll_mutex;
     bool stopped = false;
     Poll poll;
-    Impl(const fs::path& outdir, const WriteOptions& w, const ProgressFn& p, LutCache* c)
-        : wo(w), staging(outdir), progress(p), lut_cache(c) {
+    Impl(const fs::path& outdir, const BakePlan& pl, const ProgressFn& p, LutCache* c)
+        : plan(pl), wo(pl.write), staging(outdir), progress(p), lut_cache(c) {
         // Between bands of rows: a writer being destroyed stops at once; once
         // the bake is computed, the caller is asked too (while it computes,
         // its own progress calls are the bake's).
@@ -357,10 +350,10 @@ struct BakeWriter::Impl {
     }
 };
 
-BakeWriter::BakeWriter(const fs::path& outdir, const WriteOptions& wo, const ProgressFn& progress,
+BakeWriter::BakeWriter(const fs::path& outdir, const BakePlan& plan, const ProgressFn& progress,
                        LutCache* lut_cache) {
-    wo.validate();
-    impl_ = std::make_unique<Impl>(outdir, wo, progress, lut_cache);
+    plan.write.validate();
+    impl_ = std::make_unique<Impl>(outdir, plan, progress, lut_cache);
 }
 
 BakeWriter::~BakeWriter() {
@@ -408,10 +401,10 @@ void BakeWriter::computed() { impl_->computed = true; }
 void BakeWriter::wait() {
     impl_->tasks.wait();
     std::lock_guard<std::mutex> lock(impl_->mutex);
-    if (impl_->error) std::rethrow_exception(impl_->error);
+    if (impl_->error) io::rethrow_outside_staging(impl_->error);  // the user's path in the message
 }
 
-json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const SourceInfo& src) {
+json BakeWriter::finish(const BakeResult& r, const SourceInfo& src) {
     Impl& im = *impl_;
     const auto start = std::chrono::steady_clock::now();
     computed();
@@ -425,11 +418,20 @@ json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const Source
             write_preview((dir / "preview.png").string(), r);
             e["preview.png"] = "srgb8";
         });
-    const std::vector<PresetPlan> plans = plan_presets(bo, wo.presets);  // the jobs refer to it
+    // The sun as a light: sun.json (found or not) and sun.gltf (when found).
+    if (im.plan.sun_light && r.sun)
+        im.run("~sun", [&im, dir, &r](json&) {
+            im.poll();
+            io::write_text((dir / "sun.json").string(), sun_json(*r.sun).dump(2) + "\n");
+            if (r.sun->found) io::write_text((dir / "sun.gltf").string(), sun_gltf(*r.sun, "iblbake " IBLBAKE_VERSION));
+            im.hash("sun.json");
+            if (r.sun->found) im.hash("sun.gltf");
+        });
+    const std::vector<ExportInput> inputs = export_inputs(r, im.plan);  // the jobs refer to them
     // A preset's LUT file, like SPEC's, copied from the cache when it holds one.
     const LutFileMaker lut_file = [&im](const Image& lut, const char* encoding, const fs::path& path,
                                         const std::function<void()>& write) { im.lut_file(lut, encoding, path, write); };
-    const std::vector<ExportJob> exports = export_jobs(r, bo, plans, dir, "iblbake " IBLBAKE_VERSION, lut_file);
+    const std::vector<ExportJob> exports = export_jobs(inputs, dir, "iblbake " IBLBAKE_VERSION, lut_file);
     std::vector<json> preset_parts(exports.size());
     for (size_t k = 0; k < exports.size(); ++k)
         im.run("~preset", [&im, &exports, &preset_parts, k](json&) {
@@ -445,7 +447,7 @@ json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const Source
     // "write": how long the files kept the bake waiting once it was computed
     // (the SPEC files were written while it ran).
     const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    json manifest = make_manifest(r, bo, wo, src, encodings, waited);
+    json manifest = make_manifest(r, im.plan, src, encodings, waited);
     if (!exports.empty()) {
         json presets = json::object();
         for (size_t k = 0; k < exports.size(); ++k) presets[exports[k].preset] = preset_parts[k];
@@ -484,14 +486,14 @@ json BakeWriter::finish(const BakeResult& r, const BakeOptions& bo, const Source
     return manifest;
 }
 
-json write_bake(const BakeResult& r, const fs::path& outdir, const BakeOptions& bo, const WriteOptions& wo,
-                const SourceInfo& src, const ProgressFn& progress, LutCache* lut_cache) {
-    BakeWriter w(outdir, wo, progress, lut_cache);
+json write_bake(const BakeResult& r, const fs::path& outdir, const BakePlan& plan, const SourceInfo& src,
+                const ProgressFn& progress, LutCache* lut_cache) {
+    BakeWriter w(outdir, plan, progress, lut_cache);
     w.computed();  // the caller's bake is done: every write polls
     if (r.irradiance) w.cube("irradiance", *r.irradiance);
     for (size_t i = 0; i < r.specular.size(); ++i) w.cube("specular_" + std::to_string(r.specular_levels[i]), r.specular[i]);
     if (r.lut) w.lut(*r.lut);
-    return w.finish(r, bo, src);
+    return w.finish(r, src);
 }
 
 }  // namespace iblbake

@@ -1,24 +1,32 @@
-#include "iblbake/export/plan.h"
+#include "iblbake/pipeline/plan.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace iblbake {
+
+BakePlan make_plan(BakeOptions bo, WriteOptions wo) {
+    bo.validate();
+    BakePlan plan;
+    plan.presets = plan_presets(bo, wo.presets);
+    bo.extra = extra_outputs(bo, plan.presets);
+    plan.sun_light = bo.sun == SunMode::Split;
+    plan.bake = std::move(bo);
+    plan.write = std::move(wo);
+    return plan;
+}
 
 std::vector<PresetPlan> plan_presets(const BakeOptions& bo, const std::vector<Preset>& presets) {
     std::vector<PresetPlan> plans;
     for (const Preset& p : presets) {
-        PresetPlan plan{p, bo.face_size, {}};
         if (p.container == Container::Env && (bo.face_size & (bo.face_size - 1)))
             throw std::invalid_argument("preset '" + p.name + "' needs a power-of-two face size (Babylon's .env), not " +
                                         std::to_string(bo.face_size));
-        if (p.container != Container::Source) {
-            const int levels = preset_level_count(p, bo.face_size);
-            for (int m = 0; m < levels; ++m)
-                plan.levels.push_back({m, std::max(1, bo.face_size >> m), preset_roughness(p, m, levels, bo.face_size)});
-        }
-        plans.push_back(std::move(plan));
+        check_preset_face_size(p, bo.face_size);
+        plans.push_back({p, bo.face_size, preset_chain(p, bo.face_size)});
     }
     return plans;
 }

@@ -1,0 +1,20 @@
+// A file in, a folder out: read (io), hash, compute, write, as the plan
+// says. Shared by the CLI and the Python module so both behave the same.
+#pragma once
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "iblbake/bake/bake.h"
+#include "iblbake/bake/lut_cache.h"
+#include "iblbake/pipeline/plan.h"
+
+namespace iblbake {
+
+// Any failure (unreadable source, bad options, strict bad input, write error,
+// cancel) throws before the output folder is touched. Returns the manifest.
+nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakePlan& plan,
+                         const ProgressFn& progress = {}, LutCache* lut_cache = nullptr);
+
+}  // namespace iblbake

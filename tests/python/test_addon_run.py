@@ -1,0 +1,262 @@
+"""The UI's bake as a state machine (addon/iblbake/core/job.py's BakeRun),
+driven without Blender: fake stages stand in for Blender's buffer, the
+Cycles child render, the file reads and the bake, so every path, every
+failure and a cancel at every stage run in milliseconds."""
+import os
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "addon"))
+import iblbake_core as ib  # noqa: E402
+from iblbake.core.job import BakeRun, Steps  # noqa: E402
+from iblbake.core.pipeline import BakeReport  # noqa: E402
+from iblbake.core.settings import BakeSettings  # noqa: E402
+from iblbake.core.world import COLOR, IMAGE, RENDER, FileNotAsBlenderShowsIt, NeedsRender, WorldSource  # noqa: E402
+
+PIXELS = np.ones((2, 4, 3), np.float32)
+
+
+class Boom(Exception):
+    """A stage's failure."""
+
+
+class Render:
+    """A fake child render: running until finish() or cancel()."""
+
+    def __init__(self, fails):
+        self.fraction, self.ended, self.cancelled, self.cleaned, self.fails = 0.0, False, False, False, fails
+
+    def done(self):
+        return self.ended
+
+    def finish(self):
+        self.fraction, self.ended = 1.0, True
+
+    def result(self):
+        if self.fails:
+            raise Boom("render_result")
+        return "world.exr", ["a note from the child"]
+
+    def cancel(self):
+        self.cancelled = self.ended = True
+
+    def cleanup(self):
+        self.cleaned = True
+
+
+class Fake:
+    """Every stage, recording its calls: `fail` names the stage that raises,
+    `hold` the worker-thread stage that waits until released."""
+
+    def __init__(self, out_dir, fail=None, hold=None, plan=True, not_as_shown=False, needs_render=False,
+                 render_runs=False):
+        self.out_dir, self.fail, self.hold, self.plan = out_dir, fail, hold, plan
+        self.not_as_shown, self.needs_render, self.render_runs = not_as_shown, needs_render, render_runs
+        self.calls, self.render, self.baked = [], None, None
+        self.held, self.release = threading.Event(), threading.Event()
+
+    def steps(self):
+        return Steps(self.file_plan, self.read_buffer, self.start_render, self.read_file, self.read_render, self.bake)
+
+    def _enter(self, name):
+        self.calls.append(name)
+        if name == self.fail:
+            raise Boom(name)
+        if name == self.hold:
+            self.held.set()
+            assert self.release.wait(10)
+
+    def file_plan(self, source):
+        self._enter("file_plan")
+        return (source.image_path, True) if self.plan else None
+
+    def read_file(self, source, alpha_matters):
+        self._enter("read_file")
+        if self.not_as_shown:
+            raise FileNotAsBlenderShowsIt("the file has an alpha channel")
+        return PIXELS
+
+    def read_buffer(self, source):
+        self._enter("read_buffer")
+        if self.needs_render:
+            raise NeedsRender("the image has alpha below 1")
+        return PIXELS
+
+    def start_render(self, source):
+        self._enter("start_render")
+        source.render = {"width": 64, "notes": ["render width raised"]}
+        self.render = Render(self.fail == "render_result")
+        if not self.render_runs:
+            self.render.finish()
+        return self.render
+
+    def read_render(self, path):
+        self._enter("read_render")
+        assert path == "world.exr"
+        return PIXELS
+
+    def bake(self, source, pixels, settings, needs, progress, extra):
+        self._enter("bake")
+        for stage in ("hashing", "specular", "writing"):
+            if progress(stage, 0.5) is False:
+                raise ib.Cancelled()
+        self.baked = (source, pixels, extra)
+        return BakeReport("baked", self.out_dir, "0123abcd")
+
+
+def source(kind):
+    if kind == "colour":
+        return WorldSource(COLOR, world="w", color=(1.0, 0.5, 0.25))
+    if kind == "render":
+        return WorldSource(RENDER, "a Sky Texture", world="w")
+    return WorldSource(IMAGE, world="w", image_name="sky", image_path="/images/sky.exr")
+
+
+def start(tmp_path, kind, **kw):
+    fake = Fake(str(tmp_path), plan=kind != "buffer", **kw)
+    run = BakeRun(source(kind), BakeSettings(out_dir=str(tmp_path)), None, {"scene": "Scene"}, fake.steps())
+    return run, fake
+
+
+def drive(run, until=None, timeout=10.0):
+    """Polls as the operator's timer does, until `until(run)` (or the end);
+    returns the (stage, fraction) pairs the panel would have shown."""
+    shown = [(run.stage, run.fraction)]
+    deadline = time.monotonic() + timeout
+    while not (until(run) if until else run.finished):
+        assert time.monotonic() < deadline, shown
+        run.poll()
+        shown.append((run.stage, run.fraction))
+        time.sleep(0.001)
+    return shown
+
+
+PATHS = {  # source -> (the fake's options, the stages called, the stages timed)
+    "colour": ({}, ["bake"], ["bake"]),
+    "image": ({}, ["file_plan", "read_file", "bake"], ["read_image_file", "bake"]),
+    "buffer": ({}, ["file_plan", "read_buffer", "bake"], ["read_image_buffer", "bake"]),
+    "render": ({}, ["start_render", "read_render", "bake"], ["render_world", "read_render", "bake"]),
+    "file_not_as_shown": (dict(not_as_shown=True), ["file_plan", "read_file", "read_buffer", "bake"],
+                          ["read_image_buffer", "bake"]),
+    "needs_render": (dict(needs_render=True), ["file_plan", "read_buffer", "start_render", "read_render", "bake"],
+                     ["render_world", "read_render", "bake"]),
+}
+KINDS = {"file_not_as_shown": "image", "needs_render": "buffer"}
+
+
+@pytest.mark.parametrize("path", sorted(PATHS))
+def test_every_path_bakes_and_says_how_long_each_stage_took(tmp_path, path):
+    options, calls, timed = PATHS[path]
+    run, fake = start(tmp_path, KINDS.get(path, path), **options)
+    shown = drive(run)
+    assert fake.calls == calls
+    assert (run.cancelled, run.error) == (False, None) and run.report.status == "baked"
+    assert [name for name, _ in run.stages] == timed and all(sec >= 0 for _, sec in run.stages)
+    assert run.report.seconds >= sum(sec for _, sec in run.stages[:-1])
+    baked_source, pixels, extra = fake.baked
+    assert (pixels is None) == (path == "colour")
+    # The manifest's blender.waited: what ran before the native bake.
+    assert extra == {"scene": "Scene", "waited": {name: pytest.approx(sec, abs=1e-4) for name, sec in run.stages[:-1]}}
+    fractions = [f for _, f in shown]
+    assert fractions == sorted(fractions) and fractions[-1] <= 1.0
+    if "render_world" in timed:
+        assert baked_source.path == RENDER and "Rendering the world with Cycles" in {stage for stage, _ in shown}
+        assert baked_source.render["notes"] == ["render width raised", "a note from the child"]
+    if path == "needs_render":
+        assert baked_source.why == "the image has alpha below 1"
+    run.cleanup()
+    assert fake.render is None or fake.render.cleaned
+
+
+# (source, failing stage, whether it runs on the main thread: then poll() raises it)
+FAILURES = [("image", "file_plan", True), ("image", "read_file", False), ("buffer", "read_buffer", True),
+            ("render", "start_render", True), ("render", "render_result", True), ("render", "read_render", False),
+            ("image", "bake", False), ("colour", "bake", False)]
+
+
+@pytest.mark.parametrize("kind,stage,main_thread", FAILURES)
+def test_a_failure_at_any_stage_ends_the_run_with_that_error(tmp_path, kind, stage, main_thread):
+    run, fake = start(tmp_path, kind, fail=stage)
+    if main_thread:
+        with pytest.raises(Boom, match=stage):
+            drive(run)
+        assert not run.finished
+    else:
+        drive(run)
+        assert isinstance(run.error, Boom) and str(run.error) == stage
+        assert (run.report, run.cancelled) == (None, False)
+    assert fake.baked is None
+    run.cancel()  # what the operator does after any failure: nothing is left running
+    run.cleanup()
+    assert fake.render is None or fake.render.cleaned
+
+
+def at_buffer(run, fake):
+    return run.stage == "Reading the image from Blender"
+
+
+def rendering(run, fake):
+    return fake.render is not None
+
+
+def held(run, fake):
+    return fake.held.is_set()
+
+
+def before_start(run, fake):
+    return True
+
+
+# stage -> (source, the fake's options, when to cancel, the stages that ran)
+CANCELS = {
+    "start": ("image", {}, before_start, []),
+    "read_image_buffer": ("buffer", {}, at_buffer, ["file_plan"]),
+    "read_image_file": ("image", dict(hold="read_file"), held, ["file_plan", "read_file", "bake"]),
+    "render_world": ("render", dict(render_runs=True), rendering, ["start_render"]),
+    "read_render": ("render", dict(hold="read_render"), held, ["start_render", "read_render", "bake"]),
+    "bake": ("image", dict(hold="bake"), held, ["file_plan", "read_file", "bake"]),
+}
+
+
+@pytest.mark.parametrize("stage", sorted(CANCELS))
+def test_a_cancel_at_any_stage_stops_it_without_a_bake(tmp_path, stage):
+    kind, options, when, ran = CANCELS[stage]
+    run, fake = start(tmp_path, kind, **options)
+    drive(run, until=lambda r: when(r, fake))
+    fraction = run.fraction
+    run.cancel()
+    assert (run.stage, run.fraction) == ("Cancelling", fraction)
+    fake.release.set()  # a file read in progress ends on its own; the bake stops at its next progress report
+    drive(run)
+    assert run.cancelled and (run.report, run.error, fake.baked) == (None, None, None)
+    assert fake.calls == ran
+    if stage == "render_world":
+        assert fake.render.cancelled
+    run.cleanup()
+    assert fake.render is None or fake.render.cleaned
+
+
+def test_a_bake_done_before_the_cancel_is_reported_as_done(tmp_path):
+    run, fake = start(tmp_path, "colour")
+    run.poll()  # starts the worker
+    deadline = time.monotonic() + 10
+    while fake.baked is None:  # the bake returned (and wrote) before the key press
+        assert time.monotonic() < deadline
+        time.sleep(0.001)
+    run.cancel()
+    drive(run)
+    assert not run.cancelled and run.report.status == "baked" and run.stages[-1][0] == "bake"
+
+
+def test_a_failure_after_the_cancel_counts_as_the_cancel(tmp_path):
+    run, fake = start(tmp_path, "image", hold="read_file")
+    drive(run, until=lambda r: fake.held.is_set())
+    fake.fail = "bake"
+    run.cancel()
+    fake.release.set()
+    drive(run)
+    assert run.cancelled and run.error is None and fake.calls[-1] == "bake"
