@@ -656,37 +656,50 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
     taken.assign(n, 0);
     for (const uint32_t q : order) {
         if (!over()) break;
-        const size_t b = q % n;
-        const int c = int(q / n);
+        const int c = int(q >= n) + int(q >= 2 * n);  // q = c n + b
+        const size_t b = q - size_t(c) * n;
         for (int g = 0; g < K; ++g) total[g][c] -= est[(size_t(g) * 3 + c) * n + b];
+        if (!taken[b]) __builtin_prefetch(&tree.chroma_of(*chromatic[b]));  // read below
         taken[b] |= uint8_t(1u << c);
     }
+    // The entries: per bin taken, its taken channels' power negated (with
+    // the bin's moments), then each taken channel alone (its own); written
+    // in place, padded to whole lanes with zeros.
+    size_t count = 0;
+    for (size_t b = 0; b < n; ++b) count += taken[b] ? 1 + size_t(__builtin_popcount(taken[b])) : 0;
+    const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
     thread_local std::vector<float> acc[kFields];
-    for (auto& a : acc) a.clear();
-    auto push = [&](const float* p, float g, const float* power, const float* cov, float cov_scale) {
-        acc[kernel::kPx].push_back(p[0]), acc[kernel::kPy].push_back(p[1]), acc[kernel::kPz].push_back(p[2]);
-        acc[kernel::kG].push_back(g);
-        for (int c = 0; c < 3; ++c) acc[kernel::kP0 + c].push_back(power[c]);
-        for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k].push_back(cov[k] * cov_scale);
+    float* f[kFields];
+    for (int k = 0; k < kFields; ++k) {
+        acc[k].resize(padded);
+        f[k] = acc[k].data();
+    }
+    size_t e = 0;
+    auto put = [&](const float* p, float g, const float* cov, float cov_scale) {  // no power yet
+        f[kernel::kPx][e] = p[0], f[kernel::kPy][e] = p[1], f[kernel::kPz][e] = p[2];
+        f[kernel::kG][e] = g;
+        for (int c = 0; c < 3; ++c) f[kernel::kP0 + c][e] = 0.0f;
+        for (int k = 0; k < 6; ++k) f[kernel::kCxx + k][e] = cov[k] * cov_scale;
+        ++e;
     };
     for (size_t b = 0; b < n; ++b) {
-        if (!taken[b]) continue;
+        const unsigned tk = taken[b];
+        if (!tk) continue;
         const BinNode* nd = chromatic[b];
         const ChromaBin& cb = tree.chroma_of(*nd);
         const float p[3] = {nd->px, nd->py, nd->pz};
-        float minus[3];
-        for (int c = 0; c < 3; ++c) minus[c] = taken[b] >> c & 1u ? -nd->power[c] : 0.0f;
-        push(p, nd->g, minus, nd->cov, 1.0f);
+        put(p, nd->g, nd->cov, 1.0f);
+        for (int c = 0; c < 3; ++c)
+            if (tk >> c & 1u) f[kernel::kP0 + c][e - 1] = -nd->power[c];
         for (int c = 0; c < 3; ++c) {
-            if (!(taken[b] >> c & 1u)) continue;
+            if (!(tk >> c & 1u)) continue;
             const ChromaChannel& ch = cb.channel[c];
             const float cp[3] = {ch.px, ch.py, ch.pz};
-            float power[3] = {0, 0, 0};
-            power[c] = nd->power[c];
-            push(cp, ch.g, power, nd->cov, ch.cov_scale);
+            put(cp, ch.g, nd->cov, ch.cov_scale);
+            f[kernel::kP0 + c][e - 1] = nd->power[c];
         }
     }
-    const size_t count = acc[0].size();
+    for (int k = 0; k < kFields; ++k) std::fill(f[k] + count, f[k] + padded, 0.0f);
     sum_tile(t, acc, K, a2, sums, [&](int i, int j, const double (*num)[3]) {
         for (int g = 0; g < K; ++g) {
             float* o = lobes[g].dst->at(t.face, i, j);
