@@ -12,7 +12,7 @@ import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "addon"))
 import iblbake_core as ib  # noqa: E402
-from iblbake.core.job import BakeRun, Steps  # noqa: E402
+from iblbake.core.job import READING_BUFFER, READING_FILE, RENDERING, BakeRun, Steps  # noqa: E402
 from iblbake.core.pipeline import BakeReport  # noqa: E402
 from iblbake.core.settings import BakeSettings  # noqa: E402
 from iblbake.core.world import COLOR, IMAGE, RENDER, FileNotAsBlenderShowsIt, NeedsRender, WorldSource  # noqa: E402
@@ -74,8 +74,10 @@ class Fake:
         self._enter("file_plan")
         return (source.image_path, True) if self.plan else None
 
-    def read_file(self, source, alpha_matters):
+    def read_file(self, source, alpha_matters, progress=None):
         self._enter("read_file")
+        for f in (0.5, 1.0):
+            progress(f)
         if self.not_as_shown:
             raise FileNotAsBlenderShowsIt("the file has an alpha channel")
         return PIXELS
@@ -94,7 +96,7 @@ class Fake:
             self.render.finish()
         return self.render
 
-    def read_render(self, path):
+    def read_render(self, path, progress=None):
         self._enter("read_render")
         assert path == "world.exr"
         return PIXELS
@@ -164,7 +166,7 @@ def test_every_path_bakes_and_says_how_long_each_stage_took(tmp_path, path):
     fractions = [f for _, f in shown]
     assert fractions == sorted(fractions) and fractions[-1] <= 1.0
     if "render_world" in timed:
-        assert baked_source.path == RENDER and "Rendering the world with Cycles" in {stage for stage, _ in shown}
+        assert baked_source.path == RENDER and RENDERING in {stage for stage, _ in shown}
         assert baked_source.render["notes"] == ["render width raised", "a note from the child"]
     if path == "needs_render":
         assert baked_source.why == "the image has alpha below 1"
@@ -196,7 +198,7 @@ def test_a_failure_at_any_stage_ends_the_run_with_that_error(tmp_path, kind, sta
 
 
 def at_buffer(run, fake):
-    return run.stage == "Reading the image from Blender"
+    return run.stage == READING_BUFFER
 
 
 def rendering(run, fake):

@@ -142,7 +142,43 @@ void check_exr_headers(const std::string& path, uintmax_t file_size) {
     }
 }
 
-RawPixels read_exr(const std::string& path, uintmax_t file_size) {
+namespace {
+// The scan lines one compressed block of a file holds.
+int lines_per_block(Imf::Compression c) {
+    switch (c) {
+        case Imf::NO_COMPRESSION:
+        case Imf::RLE_COMPRESSION:
+        case Imf::ZIPS_COMPRESSION: return 1;
+        case Imf::ZIP_COMPRESSION:
+        case Imf::PXR24_COMPRESSION: return 16;
+        case Imf::DWAB_COMPRESSION: return 256;
+        default: return 32;  // PIZ, B44, B44A, DWAA
+    }
+}
+
+// The rows of an EXR read in bands, progress reported after each: a band
+// holds two blocks per thread of the pool (at least 128 rows), so the
+// threads still decode side by side.
+template <typename ReadRows>
+void read_in_bands(int y_min, int y_max, Imf::Compression compression, const std::function<void(double)>& progress,
+                   ReadRows&& read_rows) {
+    if (!progress) {
+        read_rows(y_min, y_max);
+        return;
+    }
+    const int band = std::max(128, 2 * lines_per_block(compression) * exr_threads());
+    const double rows = double(y_max) - y_min + 1;
+    for (int y = y_min; y <= y_max;) {
+        const int last = int(std::min<int64_t>(int64_t(y) + band - 1, y_max));
+        read_rows(y, last);
+        progress((double(last) - y_min + 1) / rows);
+        if (last == y_max) break;
+        y = last + 1;
+    }
+}
+}  // namespace
+
+RawPixels read_exr(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress) {
     RawPixels out;
     out.format = "openexr";
     limit_exr_sizes();
@@ -169,7 +205,7 @@ RawPixels read_exr(const std::string& path, uintmax_t file_size) {
         Imf::RgbaInputFile rgba(path.c_str(), exr_line_buffer_threads());
         std::vector<Imf::Rgba> px(size_t(out.width) * out.height);
         rgba.setFrameBuffer(px.data() - dw.min.x - size_t(dw.min.y) * out.width, 1, out.width);
-        rgba.readPixels(dw.min.y, dw.max.y);
+        read_in_bands(dw.min.y, dw.max.y, h.compression(), progress, [&](int a, int b) { rgba.readPixels(a, b); });
         out.channels = 3;
         out.data.resize(px.size() * 3);
         for (size_t p = 0; p < px.size(); ++p) {
@@ -197,7 +233,7 @@ RawPixels read_exr(const std::string& path, uintmax_t file_size) {
     for (int c = 0; c < out.channels; ++c)
         fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
     in.setFrameBuffer(fb);
-    in.readPixels(dw.min.y, dw.max.y);
+    read_in_bands(dw.min.y, dw.max.y, h.compression(), progress, [&](int a, int b) { in.readPixels(a, b); });
     return out;
 }
 
