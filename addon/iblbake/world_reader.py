@@ -459,3 +459,76 @@ def _has_sun_disc(world):
     return any(n.bl_idname == "ShaderNodeTexSky" and n.sky_type not in ("PREETHAM", "HOSEK_WILKIE")
                and getattr(n, "sun_disc", False) and not n.mute for n in world.node_tree.nodes)
 
+
+
+# -- whether the world changed since a bake ----------------------------------------
+# Node properties that change how a node looks in the editor, not what it computes.
+_UI_PROPS = frozenset({"rna_type", "name", "label", "location", "width", "width_hidden", "height", "dimensions",
+                       "select", "show_options", "show_preview", "show_texture", "hide", "color", "use_custom_color",
+                       "parent", "bl_idname", "bl_label", "bl_description", "bl_icon", "bl_static_type",
+                       "bl_width_default", "bl_width_min", "bl_width_max", "bl_height_default", "bl_height_min",
+                       "bl_height_max", "type", "internal_links", "inputs", "outputs", "is_active_output",
+                       "warning_propagation", "use_alpha"})
+
+
+def _value(v):
+    """A property's value as JSON (vectors as lists, data-blocks by name and file)."""
+    if isinstance(v, (bool, int, str)) or v is None:
+        return v
+    if isinstance(v, float):
+        return round(v, 7)
+    if isinstance(v, bpy.types.Image):
+        path = os.path.abspath(bpy.path.abspath(v.filepath, library=v.library)) if v.filepath else ""
+        try:
+            st = os.stat(path)
+            stamp = [st.st_size, st.st_mtime_ns]
+        except OSError:
+            stamp = None
+        return ["image", v.name, path, stamp, v.source, v.colorspace_settings.name, v.alpha_mode, v.is_dirty]
+    if isinstance(v, bpy.types.ID):
+        return [type(v).__name__, v.name]
+    try:
+        return [_value(x) for x in v]
+    except TypeError:
+        return str(v)
+
+
+def _tree_json(tree, seen):
+    if tree is None or tree.name in seen:
+        return None
+    seen.add(tree.name)
+    nodes = []
+    for node in sorted(tree.nodes, key=lambda n: n.name):
+        props = {}
+        for prop in node.bl_rna.properties:
+            key = prop.identifier
+            if key in _UI_PROPS or prop.type in ("POINTER", "COLLECTION") and key not in ("image", "node_tree"):
+                continue
+            try:
+                props[key] = _value(getattr(node, key))
+            except (AttributeError, RuntimeError):
+                continue
+        if getattr(node, "node_tree", None) is not None:
+            props["node_tree"] = _tree_json(node.node_tree, seen)
+        inputs = [[s.identifier, s.is_linked, _value(getattr(s, "default_value", None))] for s in node.inputs]
+        nodes.append([node.name, node.bl_idname, node.mute, props, inputs])
+    links = sorted([link.from_node.name, link.from_socket.identifier, link.to_node.name, link.to_socket.identifier,
+                    link.is_muted] for link in tree.links)
+    return [nodes, links]
+
+
+def fingerprint(world) -> str:
+    """sha256 of what makes a world light the scene as it does: its node tree
+    (every node's settings and inputs, the links, node groups) or colour, and
+    its images' files (size and time). Cheap enough for the panel (cached
+    there until the next change); a changed fingerprint tells the panel the
+    folder's bake no longer shows the world."""
+    import hashlib
+    import json
+    if world is None:
+        data = None
+    elif uses_nodes(world):
+        data = ["nodes", _tree_json(world.node_tree, set()), world.cycles_visibility.camera]
+    else:
+        data = ["colour", _value(world.color)]
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()

@@ -202,7 +202,7 @@ def test_panel_says_in_words_what_is_skipped_and_why():
     assert D.needs_sentences(cube, 9, scene_only=False) == [
         "Everything: irradiance, all 9 specular levels, the BRDF LUT"]
     # Engine presets need every level, whatever the scene reads.
-    assert D.needs_sentences(cube, 9, True, ("three",)) == ["Everything: engine presets (three) need every level"]
+    assert D.needs_sentences(cube, 9, True, ("three",)) == ["Everything: the engines ticked (three.js) need every level"]
     metal = N.needs_from_lobes([N.Lobe("glossy", (0.2, 0.6), "m")], 9, 1)
     assert D.needs_sentences(metal, 9, True) == [
         "No irradiance: no visible material is diffuse",
@@ -225,7 +225,7 @@ def test_bake_files_are_listed_with_sizes_and_levels_grouped(tmp_path):
         (tmp_path / name).write_bytes(b"x" * size)
     files, total = D.bake_files(str(tmp_path))
     assert total == 280 and files[0] == ("manifest.json", 10) and files[1] == ("preview.png", 20)
-    assert D.grouped_files(files)[-1] == ("specular_0-2.exr (3 files)", 150)
+    assert D.grouped_files(files)[-1] == ("specular_0-2.exr", 150)
     assert D.human_size(512) == "512 B" and D.human_size(3 * 1024 * 1024) == "3.0 MB"
     assert D.bake_files(str(tmp_path / "missing")) == ([], 0)
 

@@ -4,6 +4,7 @@ import json
 import os
 from typing import List, Optional, Tuple
 
+from . import options
 from .needs import Needs
 
 
@@ -23,7 +24,8 @@ def needs_sentences(needs: Needs, mip_count: int, scene_only: bool, presets: Tup
     if not scene_only:
         return ["Everything: irradiance, all %s, the BRDF LUT" % _levels(mip_count)]
     if presets:
-        return ["Everything: engine presets (%s) need every level" % ", ".join(presets)]
+        return ["Everything: the engines ticked (%s) need every level"
+                % ", ".join(options.choice_label("presets", p) for p in presets)]
     if not needs.analysed:
         return ["Everything: no visible object to read materials from"]
     out = []
@@ -61,8 +63,8 @@ def shorten_middle(text: str, max_chars: int) -> str:
 def human_size(n: int) -> str:
     size = float(n)
     for unit in ("B", "KB", "MB", "GB"):
-        if size < 1024 or unit == "GB":
-            return ("%d %s" % (size, unit)) if unit == "B" else ("%.1f %s" % (size, unit))
+        if size < 1024 or unit == "GB":  # three digits at most: "261 KB", "1.9 MB"
+            return ("%d %s" % (size, unit)) if unit == "B" or size >= 100 else ("%.1f %s" % (size, unit))
         size /= 1024.0
     return "%d B" % n
 
@@ -104,8 +106,8 @@ def files_words(n: int) -> str:
 
 def grouped_files(files: List[Tuple[str, int]]) -> List[Tuple[str, int]]:
     """A bake's files for a short list: the specular levels of one extension
-    as one line ("specular_0-8.exr (9 files)"), an engine preset's folder as
-    one line ("three/ (2 files)"), the others one by one."""
+    as one line ("specular_0-8.exr"), an engine preset's folder as one line
+    ("three/ (2 files)"), the others one by one."""
     out, levels, folders = [], {}, {}
     for name, size in files:
         if "/" in name:
@@ -121,7 +123,7 @@ def grouped_files(files: List[Tuple[str, int]]) -> List[Tuple[str, int]]:
         if len(items) == 1:
             out.append(("specular_%d%s" % (items[0][0], ext), items[0][1]))
         else:
-            out.append(("specular_%s%s (%d files)" % (level_ranges([m for m, _ in items], "-", ","), ext, len(items)),
+            out.append(("specular_%s%s" % (level_ranges([m for m, _ in items], "-", ","), ext),
                         sum(s for _, s in items)))
     for folder, sizes in sorted(folders.items()):
         out.append(("%s/ (%s)" % (folder, files_words(len(sizes))), sum(sizes)))

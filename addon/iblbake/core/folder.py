@@ -32,7 +32,7 @@ class Outputs:
             out.append(describe.levels_words(self.levels))
         if self.lut:
             out.append("BRDF LUT")
-        out += [options.choice_label("presets", p) for p in self.presets]
+        out += [options.choice_label("presets", p) for p in options.in_table_order("presets", self.presets)]
         return ", ".join(out) or "nothing"
 
 
@@ -180,7 +180,7 @@ def losses(old: FolderBake, new: Outputs, source=None) -> List[str]:
             out.append(sized(text, groups.pop(key)))
     presets = sorted(k for k in groups if k.startswith("preset:"))
     if presets:
-        labels = [options.choice_label("presets", k[7:]) for k in presets]
+        labels = [options.choice_label("presets", p) for p in options.in_table_order("presets", [k[7:] for k in presets])]
         items = [item for k in presets for item in groups.pop(k)]
         out.append(sized("the %s folder%s" % (describe.and_list(labels), "s" if len(labels) > 1 else ""), items))
     return out

@@ -31,7 +31,7 @@ REQUIRES = {"png_encoding": ("formats", "png"), "exposure": ("formats", "png")}
 
 # Choices Blender labels its own way: the "source" preset (the cleaned
 # lat-long for engines that filter it themselves) would read as Valve's engine.
-CHOICE_LABELS = {("presets", "source"): "Unreal/Godot"}
+CHOICE_LABELS = {("presets", "source"): "UE/Godot"}
 
 
 def rows():
@@ -57,6 +57,12 @@ def choice_label(name: str, value: str) -> str:
 
 
 _LABELS = {}
+
+
+def in_table_order(name: str, values):
+    """values of a list row in the order of its choices (the buttons' order), unknown ones last."""
+    order = {c["value"]: i for r in rows() if r["name"] == name for i, c in enumerate(r.get("choices") or [])}
+    return sorted(values, key=lambda v: (order.get(v, len(order)), v))
 
 
 def native_names():
