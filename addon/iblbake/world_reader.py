@@ -307,6 +307,9 @@ def render_world_to_file(world, width: int, samples: int, frame: int, path: str)
         c.pixel_filter_type = "BOX"
         c.filter_width = 1.0
         c.seed = 0
+        if hasattr(c, "use_auto_tile"):  # Blender 3.0+: tiles, so the progress moves (the pixels are the same)
+            c.use_auto_tile = True
+            c.tile_size = render_tile_size(width)
         scene.view_settings.view_transform = "Standard"
         bpy.ops.render.render(write_still=True, scene=scene.name)
         if not os.path.isfile(path):
@@ -353,6 +356,7 @@ class ChildRender:
     and starts the child; poll() says how far it got; cancel() ends it."""
 
     SAMPLE = re.compile(r"(?:Sample|Path Tracing Sample)\s+(\d+)\s*/\s*(\d+)|(\d+)\s*/\s*(\d+)\s+[Ss]amples")
+    TILES = re.compile(r"Rendered\s+(\d+)\s*/\s*(\d+)\s+Tiles")
 
     def __init__(self, world, width: int, samples: int, frame: int):
         self.tmp = tempfile.mkdtemp(prefix="iblbake-render-")
@@ -362,6 +366,7 @@ class ChildRender:
         self.args = (world.name if world is not None else "", width, samples, frame)
         self.world = world
         self.fraction = 0.0
+        self.sampling = False  # Cycles has begun sampling (before: Blender starting, the scene's sync)
         self.lines = []
         self.proc = None
         self._reader = None
@@ -391,7 +396,12 @@ class ChildRender:
             if m:
                 done, total = (m.group(1), m.group(2)) if m.group(1) else (m.group(3), m.group(4))
                 if int(total) > 0:
-                    self.fraction = min(1.0, int(done) / int(total))
+                    fraction = int(done) / int(total)
+                    tiles = self.TILES.search(line)  # "Rendered 3/32 Tiles, Sample 5/16"
+                    if tiles and int(tiles.group(2)) > 0:
+                        fraction = (int(tiles.group(1)) + fraction) / int(tiles.group(2))
+                    self.fraction = max(self.fraction, min(1.0, fraction))
+                    self.sampling = True
 
     def done(self) -> bool:
         return self.proc is not None and self.proc.poll() is not None
@@ -445,6 +455,12 @@ def read_world(scene, render_width: int, render_samples: int):
         src.render["notes"] = notes + copy_notes
         return src, pixels
     return src, None
+
+
+def render_tile_size(width: int) -> int:
+    """Cycles' tile for a render `width` wide: 32 tiles or more, so that the
+    progress (printed per tile) moves often."""
+    return max(128, width // 32)
 
 
 # Nishita's (5.x: Single Scattering's) sun is 0.545 degrees across by default: at 1024 pixels across

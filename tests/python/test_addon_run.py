@@ -12,7 +12,8 @@ import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "addon"))
 import iblbake_core as ib  # noqa: E402
-from iblbake.core.job import READING_BUFFER, READING_FILE, RENDERING, BakeJob, BakeRun, Steps  # noqa: E402
+from iblbake.core.job import (READING_BUFFER, READING_FILE, RENDERING, STARTING_RENDER, BakeJob, BakeRun,  # noqa: E402
+                              Steps)
 from iblbake.core.pipeline import BakeReport  # noqa: E402
 from iblbake.core.settings import BakeSettings  # noqa: E402
 from iblbake.core.world import COLOR, IMAGE, RENDER, FileNotAsBlenderShowsIt, NeedsRender, WorldSource  # noqa: E402
@@ -29,6 +30,7 @@ class Render:
 
     def __init__(self, fails):
         self.fraction, self.ended, self.cancelled, self.cleaned, self.fails = 0.0, False, False, False, fails
+        self.sampling = False
 
     def done(self):
         return self.ended
@@ -166,7 +168,7 @@ def test_every_path_bakes_and_says_how_long_each_stage_took(tmp_path, path):
     fractions = [f for _, f in shown]
     assert fractions == sorted(fractions) and fractions[-1] <= 1.0
     if "render_world" in timed:
-        assert baked_source.path == RENDER and RENDERING in {stage for stage, _ in shown}
+        assert baked_source.path == RENDER and STARTING_RENDER in {stage for stage, _ in shown}
         assert baked_source.render["notes"] == ["render width raised", "a note from the child"]
     if path == "needs_render":
         assert baked_source.why == "the image has alpha below 1"
@@ -240,6 +242,29 @@ def test_a_cancel_at_any_stage_stops_it_without_a_bake(tmp_path, stage):
         assert fake.render.cancelled
     run.cleanup()
     assert fake.render is None or fake.render.cleaned
+
+
+def test_the_bar_follows_the_files_rows_and_the_renders_samples(tmp_path):
+    """Reading: the share of the file's rows read (iblbake_core.read_image's
+    progress); rendering: Cycles' tiles and samples, once it samples."""
+    run, fake = start(tmp_path, "image", hold="bake")
+    drive(run, until=lambda r: fake.held.is_set())
+    run.poll()  # the fake read reported 0.5, then 1.0 of its rows; the bake has not reported yet
+    assert (run.stage, run.fraction) == (READING_FILE, pytest.approx(0.15))
+    fake.release.set()
+    drive(run)
+
+    run, fake = start(tmp_path, "render", render_runs=True)
+    drive(run, until=lambda r: fake.render is not None)
+    render = fake.render
+    run.poll()
+    assert run.stage == STARTING_RENDER  # Blender starting, Cycles syncing: no sample yet
+    render.sampling, render.fraction = True, 0.5
+    run.poll()
+    assert run.stage == RENDERING and run.fraction == pytest.approx(0.02 + (0.6 - 0.02) * 0.5)
+    render.finish()
+    drive(run)
+    assert run.report.status == "baked"
 
 
 def test_a_bake_done_before_the_cancel_is_reported_as_done(tmp_path):

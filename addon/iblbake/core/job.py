@@ -90,6 +90,7 @@ STAGE_WORDS = {"reading source": "Scanning the image", "specular": "Specular lev
                "hashing": "Checking for changes"}
 # (short: the bar is narrow at the Properties editor's default width)
 RENDERING = "Rendering with Cycles"
+STARTING_RENDER = "Starting Cycles"
 READING_BUFFER = "Reading from Blender"
 READING_FILE = "Reading the image"
 READING_RENDER = "Reading the render"
@@ -184,12 +185,14 @@ class BakeRun:
         self._render = self._steps.start_render(self.source)
         self._pre = RENDER_SHARE
         self._step = self._wait_render
-        self._show(RENDERING, FIRST)
+        self._show(STARTING_RENDER, FIRST)
 
     def _wait_render(self):
         render = self._render
-        if not render.done():
-            self._show(RENDERING, FIRST + (self._pre - FIRST) * render.fraction)
+        if not render.done():  # Blender starting and Cycles syncing, then its tiles and samples
+            sampling = getattr(render, "sampling", True)
+            self._show(RENDERING if sampling else STARTING_RENDER,
+                       FIRST + (self._pre - FIRST) * (render.fraction if sampling else 0.0))
             return
         path, notes = render.result()
         self.source.render["notes"] = self.source.render.get("notes", []) + notes
