@@ -367,6 +367,7 @@ class ChildRender:
         self.world = world
         self.fraction = 0.0
         self.sampling = False  # Cycles has begun sampling (before: Blender starting, the scene's sync)
+        self.saving = False    # Cycles has finished: the child writes the EXR and quits
         self.lines = []
         self.proc = None
         self._reader = None
@@ -392,6 +393,8 @@ class ChildRender:
     def _read(self):
         for line in self.proc.stdout:
             self.lines = (self.lines + [line.rstrip()])[-40:]
+            if line.startswith("Saved:") or line.rstrip().endswith("| Finished"):
+                self.saving = True
             m = self.SAMPLE.search(line)
             if m:
                 done, total = (m.group(1), m.group(2)) if m.group(1) else (m.group(3), m.group(4))

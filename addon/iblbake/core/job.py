@@ -91,6 +91,7 @@ STAGE_WORDS = {"reading source": "Scanning the image", "specular": "Specular lev
 # (short: the bar is narrow at the Properties editor's default width)
 RENDERING = "Rendering with Cycles"
 STARTING_RENDER = "Starting Cycles"
+SAVING_RENDER = "Saving the render"
 READING_BUFFER = "Reading from Blender"
 READING_FILE = "Reading the image"
 READING_RENDER = "Reading the render"
@@ -191,8 +192,8 @@ class BakeRun:
         render = self._render
         if not render.done():  # Blender starting and Cycles syncing, then its tiles and samples
             sampling = getattr(render, "sampling", True)
-            self._show(RENDERING if sampling else STARTING_RENDER,
-                       FIRST + (self._pre - FIRST) * (render.fraction if sampling else 0.0))
+            stage = SAVING_RENDER if getattr(render, "saving", False) else RENDERING if sampling else STARTING_RENDER
+            self._show(stage, FIRST + (self._pre - FIRST) * (render.fraction if sampling else 0.0))
             return
         path, notes = render.result()
         self.source.render["notes"] = self.source.render.get("notes", []) + notes

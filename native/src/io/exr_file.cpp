@@ -157,8 +157,8 @@ int lines_per_block(Imf::Compression c) {
 }
 
 // The rows of an EXR read in bands, progress reported after each: a band
-// holds two blocks per thread of the pool (at least 128 rows), so the
-// threads still decode side by side.
+// holds a block per thread of the pool (at least 128 rows), so the threads
+// still decode side by side.
 template <typename ReadRows>
 void read_in_bands(int y_min, int y_max, Imf::Compression compression, const std::function<void(double)>& progress,
                    ReadRows&& read_rows) {
@@ -166,7 +166,7 @@ void read_in_bands(int y_min, int y_max, Imf::Compression compression, const std
         read_rows(y_min, y_max);
         return;
     }
-    const int band = std::max(128, 2 * lines_per_block(compression) * exr_threads());
+    const int band = std::max(128, lines_per_block(compression) * exr_threads());
     const double rows = double(y_max) - y_min + 1;
     for (int y = y_min; y <= y_max;) {
         const int last = int(std::min<int64_t>(int64_t(y) + band - 1, y_max));
