@@ -26,8 +26,9 @@ from .scene_settings import gather_settings, manifest_extra, scene_needs_for, un
 
 OUR_ERRORS = (pipeline.BakeError, world_reader.WorldError)
 # The panel's bar is redrawn when its percentage changes, at most this often
-# (its stage's name changing redraws at once): each redraw costs the UI.
-REDRAW_INTERVAL = 0.25
+# (its stage's name changing redraws at once): each redraw costs the UI a
+# whole window's drawing, which a loaded machine without a GPU feels.
+REDRAW_INTERVAL = 0.5
 
 
 def _words(error, ours=OUR_ERRORS):
@@ -244,7 +245,7 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
             context.workspace.status_text_set(text)
         except (AttributeError, ReferenceError):
             pass
-        state.redraw(context, images=False)
+        state.redraw(context, images=False, only_world=True)
 
     def _cleanup(self, context):
         if self._timer is not None:

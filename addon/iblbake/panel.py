@@ -337,8 +337,8 @@ class IBLBAKE_PT_world(bpy.types.Panel):
             col.prop(props, "output_dir", text="", placeholder=output_template(context, scene))
         except TypeError:
             col.prop(props, "output_dir", text="")
-        if plan.folder:
-            col.label(text=describe.shorten_middle(plan.folder, width - 2), icon="FILE_FOLDER")
+        if plan.folder:  # its end (the folder's own name) always shown: shortened in the middle
+            col.label(text=describe.shorten_middle(plan.folder, width - 5), icon="FILE_FOLDER")
         else:
             _paragraph(col, plan.folder_error, width - 2, "ERROR")
 
@@ -368,9 +368,8 @@ def _initialise_soon(scene_name):
     return run
 
 
-class IBLBAKE_PT_world_options(bpy.types.Panel):
-    bl_label = "Options"
-    bl_idname = "IBLBAKE_PT_world_options"
+class WorldSubPanel:
+    """A sub-panel of Image-Based Lighting, shown when the scene has a world."""
     bl_parent_id = "IBLBAKE_PT_world"
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
@@ -379,6 +378,11 @@ class IBLBAKE_PT_world_options(bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         return context.scene is not None and context.scene.world is not None
+
+
+class IBLBAKE_PT_world_options(WorldSubPanel, bpy.types.Panel):
+    bl_label = "Options"
+    bl_idname = "IBLBAKE_PT_world_options"
 
     def draw(self, context):
         layout = self.layout
@@ -388,17 +392,9 @@ class IBLBAKE_PT_world_options(bpy.types.Panel):
         draw_options(layout, context.scene.iblbake, narrow)
 
 
-class IBLBAKE_PT_world_files(bpy.types.Panel):
+class IBLBAKE_PT_world_files(WorldSubPanel, bpy.types.Panel):
     bl_label = "Files"
     bl_idname = "IBLBAKE_PT_world_files"
-    bl_parent_id = "IBLBAKE_PT_world"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "world"
-
-    @classmethod
-    def poll(cls, context):
-        return context.scene is not None and context.scene.world is not None
 
     def draw(self, context):
         layout = self.layout

@@ -173,8 +173,10 @@ HANDLERS = ((bpy.app.handlers.load_post, initialise_all), (bpy.app.handlers.deps
 
 def register_props():
     bpy.types.Scene.iblbake = PointerProperty(type=IBLBAKE_SceneSettings)
-    # The file open when the add-on is enabled (bpy.data is not for writing during register).
-    bpy.app.timers.register(lambda: initialise_all() and None, first_interval=0.0)
+    # The file open when the add-on is enabled; while Blender starts, bpy.data
+    # is not there yet (the startup file's load_post does it then).
+    if isinstance(bpy.data, bpy.types.BlendData):
+        initialise_all()
     # The running bake's progress for the panel's bar (read-only, not saved: a window manager property).
     bpy.types.WindowManager.iblbake_progress = FloatProperty(
         name="Progress", subtype="PERCENTAGE", min=0.0, max=100.0, precision=0, get=_progress,

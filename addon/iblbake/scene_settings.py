@@ -60,8 +60,7 @@ def unsaved_relative_folder(context, scene) -> str:
 
 
 def _unsaved(template):
-    return ("save the file first: the output folder %s is relative to the .blend file (//), which is not "
-            "saved yet (or choose an absolute folder)" % template)
+    return "save the file first: the folder %s is relative to it (or choose an absolute folder)" % template
 
 
 def engine_names(props) -> list:

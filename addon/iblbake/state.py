@@ -84,16 +84,18 @@ def _keep_files(scene_name, status, kind, error, out_dir):
 PREVIEW_IMAGE = "iblbake preview"
 
 
-def redraw(context=None, images=False):
+def redraw(context=None, images=False, only_world=False):
     """Redraws the editors that show what this module holds (none in background
-    mode): the Properties editors and the status bar; with images, the Image
-    Editors that show the preview sheet too."""
+    mode): the Properties editors (only_world: those showing World
+    Properties) and the status bar; with images, the Image Editors that
+    show the preview sheet too."""
     wm = bpy.context.window_manager if context is None else context.window_manager
     if wm is None:
         return
     for window in wm.windows:
         for area in window.screen.areas:
-            if area.type in ("PROPERTIES", "STATUSBAR"):
+            if area.type == "STATUSBAR" or (area.type == "PROPERTIES" and (
+                    not only_world or getattr(area.spaces.active, "context", "") == "WORLD")):
                 area.tag_redraw()
             elif images and area.type == "IMAGE_EDITOR":
                 image = area.spaces.active.image

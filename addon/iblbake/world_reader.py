@@ -17,6 +17,7 @@ import numpy as np
 
 from .compat import uses_nodes
 from .core import native
+from .core.worker import NICE
 from .core.world import COLOR, IMAGE, RENDER, Mapping, NeedsRender, WorldSource
 
 
@@ -371,8 +372,14 @@ class ChildRender:
         self.lines = []
         self.proc = None
         self._reader = None
+        self._spawned = threading.Event()
+        self._spawn_error = None
+        self._cancelled = False
 
     def start(self):
+        """Writes the world's .blend here (bpy, milliseconds); the child is
+        started by the log's thread (starting a process from a process as
+        large as Blender takes a moment the UI must not wait for)."""
         if self.world is not None:
             bpy.data.libraries.write(self.blend, {self.world}, path_remap="ABSOLUTE")
         script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "render_child.py")
@@ -380,15 +387,28 @@ class ChildRender:
         cmd = [bpy.app.binary_path, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1",
                "--python", script, "--", self.blend if self.world is not None else "", name, str(width),
                str(samples), str(frame), self.exr, self.notes_path]
-        if shutil.which("nice"):  # the open Blender's UI comes first
-            cmd = ["nice", "-n", "10"] + cmd
-        env = dict(os.environ)
-        env.pop("PYTHONPATH", None)
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                     env=env, text=True, errors="replace")
-        self._reader = threading.Thread(target=self._read, name="iblbake render log", daemon=True)
+        if shutil.which("nice"):  # the open Blender's UI comes first (core/worker.py says why this is fair)
+            cmd = ["nice", "-n", str(NICE)] + cmd
+        self._reader = threading.Thread(target=self._spawn_and_read, args=(cmd,), name="iblbake render log",
+                                        daemon=True)
         self._reader.start()
         return self
+
+    def _spawn_and_read(self, cmd):
+        env = dict(os.environ)
+        env.pop("PYTHONPATH", None)
+        try:
+            proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                    stdin=subprocess.DEVNULL, env=env, text=True, errors="replace")
+        except OSError as e:
+            self._spawn_error = e
+            self._spawned.set()
+            return
+        self.proc = proc
+        self._spawned.set()
+        if self._cancelled:
+            proc.terminate()
+        self._read()
 
     def _read(self):
         for line in self.proc.stdout:
@@ -407,10 +427,13 @@ class ChildRender:
                     self.sampling = True
 
     def done(self) -> bool:
-        return self.proc is not None and self.proc.poll() is not None
+        return self._spawned.is_set() and (self._spawn_error is not None or self.proc.poll() is not None)
 
     def result(self):
         """(path of the rendered EXR, notes); raises WorldError when the child failed."""
+        if self._spawn_error is not None:
+            raise WorldError("Cycles could not render the world: Blender could not be started (%s)"
+                             % self._spawn_error)
         if self._reader is not None:
             self._reader.join(5)
         if self.proc.returncode != 0 or not os.path.isfile(self.exr):
@@ -428,11 +451,14 @@ class ChildRender:
 
     def cancel(self):
         """Asks the child to stop (SIGTERM); returns at once (done() says when it has)."""
+        self._cancelled = True
         if self.proc is not None and self.proc.poll() is None:
             self.proc.terminate()
 
     def cleanup(self):
         """Ends the child (killed if SIGTERM did not end it within a second) and removes its files."""
+        self._cancelled = True
+        self._spawned.wait(10)
         if self.proc is not None and self.proc.poll() is None:
             self.proc.terminate()
             try:

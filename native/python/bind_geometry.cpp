@@ -62,12 +62,11 @@ void bind_geometry(pybind11::module_& m) {
                 pybind11::gil_scoped_release release;
                 li = io::read_image(path, report);
             }
-            pybind11::array_t<float> a({li.image.height, li.image.width, 3});
-            float* dst = a.mutable_data();
-            {  // a large image's copy must not hold the GIL (Blender's UI waits on it)
-                pybind11::gil_scoped_release release;
-                std::memcpy(dst, li.image.pixels.data(), li.image.pixels.size() * sizeof(float));
-            }
+            // The decoded pixels themselves, not a copy (an 8K image is 400 MB;
+            // copying it took seconds on a loaded machine): the array owns them.
+            auto* pixels = new FloatBuffer(std::move(li.image.pixels));
+            const pybind11::capsule owner(pixels, [](void* p) { delete static_cast<FloatBuffer*>(p); });
+            pybind11::array_t<float> a({li.image.height, li.image.width, 3}, pixels->data(), owner);
             if (!info) return pybind11::object(std::move(a));
             pybind11::dict d;
             d["channels"] = li.source_channels;

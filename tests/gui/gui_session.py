@@ -146,11 +146,18 @@ def prefs():
     return bpy.context.preferences.addons[ADDON[0]].preferences
 
 
-def screenshot(name, whole=False, scroll=None):
-    """The Properties editor (or the whole screen) as the X server shows it
-    (ImageMagick's import); scroll: "top", or a panel's name to scroll to first."""
+def shot(name, whole=False, scroll=None):
+    """A screenshot (generator: the caller yields from it), scrolled first
+    ("top", or steps of 40 pixels down) and redrawn."""
     if scroll is not None:
         scroll_to(scroll)
+        yield 0.8
+    screenshot(name, whole)
+    yield 0.8
+
+
+def screenshot(name, whole=False):
+    """The Properties editor (or the whole screen) as the X server shows it (ImageMagick's import)."""
     path = os.path.join(WORK, name + ".png")
     win, area, _ = properties_area()
     top = win.height - (area.y + area.height)
@@ -285,18 +292,22 @@ def bake_and_watch(key, shot=True, confirm=None):
     PULSE.reset("idle")
 
 
-def idle_window(seconds=3.0):
-    """No bake: the Properties editor redrawn every 50 ms (at least as often
-    as while baking), to tell what the UI's own drawing costs here (a
-    software renderer on Xvfb); the gaps kept for the baseline."""
-    PULSE.reset("redraw only")
+def idle_window(seconds=4.0):
+    """No bake: the UI doing what it does while a bake runs - World
+    Properties and the status bar redrawn as often as the bar is at most
+    (operators.REDRAW_INTERVAL) - so that what a bake adds is what its work
+    takes from the UI; the gaps kept for the baseline. (Each redraw draws
+    the whole window: a software renderer on Xvfb feels it.)"""
+    PULSE.reset("idle")
+    interval = addon("operators").REDRAW_INTERVAL
     end = time.perf_counter() + seconds
     while time.perf_counter() < end:
-        for area in bpy.context.window_manager.windows[0].screen.areas:
-            area.tag_redraw()
-        yield 0.05
+        addon("state").redraw(bpy.context, only_world=True)
+        yield interval
+    with open("/proc/loadavg") as f:
+        load = f.read().split()[0]
     RESULT["idle"].append({"gaps": list(PULSE.all), "own": max(PULSE.own.values() or [0.0]),
-                           "cpu": max(PULSE.cpu.values() or [0.0])})
+                           "cpu": max(PULSE.cpu.values() or [0.0]), "load": load})
     PULSE.reset("idle")
 
 
@@ -364,31 +375,29 @@ def scenario():
     RESULT["properties_width"] = [area.width, area.height]
     show_world_properties()
     scene = bpy.context.scene
-    # The scene's settings started from the preferences (this file had none).
+    scene.world = image_world(FOREST, "forest")
+    yield 1.0
+    # The scene's settings started from the preferences' defaults (this file had none) once it
+    # changed or the panel showed it.
     RESULT["checks"]["initialised"] = [scene.iblbake.options_initialised, scene.iblbake.output_dir]
 
     # 9. An unsaved file with a // folder: Bake IBL greyed out, the reason below the field.
-    scene.world = image_world(FOREST, "forest")
     scene.iblbake.output_dir = "//ibl/{world}"
     yield 1.0
     RESULT["checks"]["unsaved"] = {"poll": in_panel(lambda: bpy.ops.iblbake.bake.poll()),
                                    "why": panel._plan(bpy.context, scene).folder_error}
-    screenshot("unsaved_relative_folder", scroll="top")
-    yield 1.0
+    yield from shot("unsaved_relative_folder", scroll="top")
     scene.iblbake.output_dir = p.default_output_dir
 
     # The idle baseline's first window, then the 8K image world (the stall figures).
     scene.world = image_world(BIG_EXR)
     yield 1.0
-    screenshot("image_before", scroll="top")
-    yield 1.0
+    yield from shot("image_before", scroll="top")
     yield from idle_window()
     yield from bake_and_watch("image")
     yield 1.0
-    screenshot("image_after", scroll="top")
-    yield 1.0
-    screenshot("image_files", scroll=30)
-    yield 1.0
+    yield from shot("image_after", scroll="top")
+    yield from shot("image_files", scroll=30)
     yield from idle_window()
     folder = RESULT["bakes"]["image"]["out"]
 
@@ -401,8 +410,7 @@ def scenario():
         os.environ["PATH"] = path_env
     RESULT["open_folder"] = dict(status_lines(), clipboard=bpy.context.window_manager.clipboard)
     yield 0.5
-    screenshot("no_file_manager", scroll="top")
-    yield 1.0
+    yield from shot("no_file_manager", scroll="top")
 
     # Cancels at every stage of the 8K world (Esc or Cancel): the earlier bake stays.
     yield from cancel_at("image_read_esc", "Reading the image", "esc", folder)
@@ -416,13 +424,13 @@ def scenario():
     yield 1.0
     yield from bake_and_watch("sky")
     yield 1.0
-    screenshot("sky_after", scroll="top")
-    yield 0.5
+    yield from shot("sky_after", scroll="top")
     yield from idle_window()
     folder = RESULT["bakes"]["sky"]["out"]
     yield from cancel_at("sky_render_esc", "Rendering with Cycles", "esc", folder)
     yield from cancel_at("sky_render_button", "Rendering with Cycles", "button", folder)
     yield from cancel_at("sky_bake_button", "Specular levels", "button", folder, face_size=1024)
+    yield from idle_window()
 
     # 1-3. Every roughness with three.js and Khronos, then This Scene's Materials into the same
     # folder: Blender's dialog says what would go; Esc keeps it all, Return bakes.
@@ -436,15 +444,13 @@ def scenario():
     RESULT["checks"]["export"] = {"status": status_lines(), "du": du(folder),
                                   "files": panel._folder_state(folder)[1:],
                                   "grouped": panel.describe.grouped_files(panel._folder_state(folder)[1])}
-    screenshot("export_files", scroll=30)
-    yield 1.0
+    yield from shot("export_files", scroll=30)
     export_files = snapshot(folder)
     scene.iblbake.presets = set()
     scene.iblbake.auto_skip = True  # "Bake For: This Scene's Materials": the default cube reads level 4 of 9
     yield 1.0
     RESULT["scene_only_lines"] = panel._plan(bpy.context, scene).lines
-    screenshot("bake_for_scene", scroll=6)
-    yield 1.0
+    yield from shot("bake_for_scene", scroll=6)
     yield from bake_and_watch("scene_only_kept", shot=False, confirm="Escape")
     RESULT["checks"]["kept"] = {"intact": snapshot(folder) == export_files}
     yield from bake_and_watch("scene_only", shot=False, confirm="Return")
@@ -453,18 +459,15 @@ def scenario():
     scene.world.node_tree.nodes["Environment Texture"].image = bpy.data.images.load(CITY, check_existing=False)
     yield 1.0
     RESULT["checks"]["world_changed"] = status_lines()
-    screenshot("world_changed", scroll="top")
-    yield 0.5
+    yield from shot("world_changed", scroll="top")
     yield from bake_and_watch("other_source", shot=False, confirm="Return")
-    scene.iblbake.auto_skip = False
 
     # 4. Open Preview: no Image Editor open, the panel shows the sheet large; with one (the
     # Timeline made an Image Editor), every click reuses it; saving keeps the sheet out of the file.
     windows = len(bpy.context.window_manager.windows)
     in_panel(lambda: bpy.ops.iblbake.open_preview())
     yield 1.0
-    screenshot("preview_in_panel", scroll=40)
-    yield 1.0
+    yield from shot("preview_in_panel", scroll=40)
     timeline = next(a for a in win.screen.areas if a.type in ("DOPESHEET_EDITOR", "TIMELINE"))
     timeline.type = "IMAGE_EDITOR"
     yield 0.5
@@ -492,19 +495,20 @@ def scenario():
     yield 1.0
     RESULT["checks"]["reopened"] = dict(status_lines(), images=[i.name for i in bpy.data.images],
                                         settings=[scene.iblbake.face_size, sorted(scene.iblbake.presets)])
-    screenshot("reopened", scroll="top")
-    yield 1.0
-    screenshot("options", scroll=18)
-    yield 1.0
+    yield from shot("reopened", scroll="top")
+    yield from shot("options", scroll=18)
 
     # 8. The preferences: the defaults for new files, headings that do not repeat a button.
     bpy.context.preferences.active_section = "ADDONS"
     bpy.context.window_manager.addon_search = "iblbake"
-    try:
-        addon_utils.module_bl_info(sys.modules[ADDON[0]])["show_expanded"] = True
-    except (KeyError, TypeError, AttributeError):
-        pass
     in_panel(lambda: bpy.ops.screen.userpref_show())
+    yield 1.0
+    for mod in addon_utils.modules():  # the add-on's entry expanded, as its arrow does
+        if mod.__name__ == ADDON[0]:
+            addon_utils.module_bl_info(mod)["show_expanded"] = True
+    for extra in bpy.context.window_manager.windows:
+        for a in extra.screen.areas:
+            a.tag_redraw()
     yield 1.5
     screenshot("preferences", whole=True)
     yield 1.0
@@ -523,8 +527,7 @@ def scenario():
     yield 0.5
     RESULT["no_world"] = {"status": scene.iblbake.last_status,
                           "written": os.path.isdir(os.path.join(WORK, "out", "no_world"))}
-    screenshot("no_world", scroll="top")
-    yield 1.0
+    yield from shot("no_world", scroll="top")
 
 
 def driver(gen=scenario()):

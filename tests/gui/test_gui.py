@@ -101,9 +101,9 @@ def median(values):
 # most the idle windows' longest + 100 ms, its 99th percentile at most the
 # idle windows' (median) + 30 ms.
 MAX_MARGIN, P99_MARGIN = 0.100, 0.030
-# The idle windows themselves on a host too loaded to judge against: their
-# 99th percentile above 50 ms, or their longest gaps apart by more than the margin.
-LOADED_P99, LOADED_SPREAD = 0.050, MAX_MARGIN
+# A host too loaded to judge at that precision: the idle windows disagree
+# among themselves by more than the margins (their 99th percentiles, or
+# their longest gaps), so a bake's difference could be the load's.
 
 
 def stalls(res):
@@ -114,7 +114,8 @@ def stalls(res):
             "window_max": maxima, "window_p99": [percentile(g, 99) for g in windows]}
     bakes = {name: {"max": max(res["bakes"][name]["all_gaps"]), "p99": percentile(res["bakes"][name]["all_gaps"], 99),
                     "seconds": res["bakes"][name]["seconds"]} for name in ("image", "sky")}
-    loaded = idle["p99"] > LOADED_P99 or max(maxima) - min(maxima) > LOADED_SPREAD
+    p99s = idle["window_p99"]
+    loaded = max(p99s) - min(p99s) > P99_MARGIN or max(maxima) - min(maxima) > MAX_MARGIN
     return idle, bakes, loaded
 
 
@@ -134,16 +135,18 @@ def report(res):
     """The stalls, per bake and stage, for the test log."""
     idle, bakes, loaded = stalls(res)
     lines = ["stalls: gaps between two runs of a 10 ms timer (s), in this Blender run (load %s)" % res.get("load"),
-             "  idle windows (redraw every 50 ms): longest %s, p99 %s -> idle max %.3f, idle p99 %.3f" % (
+             "  idle windows (World Properties redrawn as often as while baking; load %s): longest %s, p99 %s -> "
+             "idle max %.3f, idle p99 %.3f" % (" ".join(w.get("load", "?") for w in res["idle"]),
                  " ".join("%.3f" % v for v in idle["window_max"]), " ".join("%.3f" % v for v in idle["window_p99"]),
                  idle["max"], idle["p99"])]
     for name, b in bakes.items():
         lines.append("  %-6s bake: longest %.3f (bound %.3f), p99 %.3f (bound %.3f), %.1f s" % (
             name, b["max"], idle["max"] + MAX_MARGIN, b["p99"], idle["p99"] + P99_MARGIN, b["seconds"]))
     if loaded:
-        lines.append("  THE HOST IS TOO LOADED TO JUDGE THE UI'S SMOOTHNESS (idle p99 %.3f, idle windows' longest "
-                     "gaps %s): the bounds are not asserted in this run" % (
-                         idle["p99"], " ".join("%.3f" % v for v in idle["window_max"])))
+        lines.append("  THE HOST IS TOO LOADED TO JUDGE THE UI'S SMOOTHNESS: its idle windows disagree by more than "
+                     "the margins (p99 %s, longest %s): the bounds are not asserted in this run" % (
+                         " ".join("%.3f" % v for v in idle["window_p99"]),
+                         " ".join("%.3f" % v for v in idle["window_max"])))
     lines.append("  worst stage per bake (wall / without waiting for a CPU / main-thread CPU; our code's longest call):")
     for name, b in list(res["bakes"].items()) + list(res["cancels"].items()):
         stages = sorted(b["gaps"], key=lambda s: -b["gaps"][s])
@@ -233,7 +236,7 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
 
     checks = res["checks"]
     # 2. The file's settings: started from the preferences; the World panel's toggles wrote the scene only.
-    assert checks["initialised"][0] is True
+    assert checks["initialised"] == [True, os.path.join(str(work), "out", "{world}")], checks["initialised"]
     assert checks["prefs_presets"] == [], checks["prefs_presets"]
     # 1. Before a bake removes what the folder holds, Blender's dialog asks: Esc keeps everything,
     # Return bakes; in the buttons' words (three.js, Khronos), no hash, no "levels 4-4".
