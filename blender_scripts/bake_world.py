@@ -202,6 +202,7 @@ def batch_folders(items, out):
 def main(argv):
     load_addon()
     args = parse_args(argv)
+    args.out = os.path.expanduser(args.out)  # a quoted '~/x' is the user's folder, as the shell would have made it
     failures = []
     if args.batch:
         for item, out in batch_folders(args.batch, args.out):

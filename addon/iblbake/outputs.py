@@ -1,5 +1,6 @@
-"""The bake's files on the desktop: Open Output Folder (the file manager)
-and Open Preview (the preview sheet in an Image Editor).
+"""The bake's files on the desktop: Open Output Folder (the file manager),
+Open Preview (the preview sheet in an Image Editor) and Add Sun Lamp (the
+sun a bake with sun="split" found, as a Sun lamp).
 
 Open Preview opens no window of its own: it shows the sheet in the Image
 Editor that shows it already, else in an Image Editor of this window or
@@ -7,6 +8,7 @@ another one; with none open, the panel shows the sheet large itself. Its
 image ("iblbake preview") is left out of the .blend: saving takes it out of
 the editors for the moment of the save and puts it back after (an image the
 user renamed, or gave a fake user, is theirs and saved)."""
+import math
 import os
 import shutil
 import subprocess
@@ -16,6 +18,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from . import state
+from .core import describe
 from .core.pipeline import BakeError
 from .scene_settings import gather_settings
 from .state import PREVIEW_IMAGE
@@ -80,16 +83,23 @@ class IBLBAKE_OT_open_preview(bpy.types.Operator):
         return {"FINISHED"}
 
 
-def preview_path(context, scene) -> str:
-    """The sheet of the scene's folder ("" when it has none)."""
+def bake_dir(context, scene) -> str:
+    """The scene's folder: its last bake's in this session, else the one a
+    bake would go to ("" when there is none: a // folder in an unsaved file)."""
     out_dir = state.last(scene.name).out_dir
     if not out_dir:
         try:
             out_dir = gather_settings(context, scene).out_dir
-        except BakeError:
+        except (BakeError, ValueError):
             return ""
-    path = os.path.join(out_dir, "preview.png")
-    return path if os.path.isfile(path) else ""
+    return out_dir
+
+
+def preview_path(context, scene) -> str:
+    """The sheet of the scene's folder ("" when it has none)."""
+    out_dir = bake_dir(context, scene)
+    path = os.path.join(out_dir, "preview.png") if out_dir else ""
+    return path if path and os.path.isfile(path) else ""
 
 
 # -- the sheet stays out of the .blend ------------------------------------------------
@@ -180,5 +190,64 @@ class IBLBAKE_OT_open_output(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (IBLBAKE_OT_open_output, IBLBAKE_OT_open_preview)
+SUN_LAMP = "IBL Sun"
+
+
+def last_sun(context, scene):
+    """The sun of the scene's last bake (the manifest's `sun`), else that of
+    the bake in its output folder; None when neither looked for one."""
+    sun = state.last(scene.name).sun
+    if sun is None:
+        out = bake_dir(context, scene)
+        sun = (describe.manifest_of(out) or {}).get("sun") if out else None
+    return sun if isinstance(sun, dict) else None
+
+
+def add_sun_lamp(scene, sun, bake_dir=""):
+    """Creates (or updates) the Sun lamp "IBL Sun" in `scene` from sun.json's
+    content: its -Z along the light (rotation from the direction), Strength =
+    E (W/m^2 is the lamp's irradiance: Strength x colour = E per channel),
+    Angle = the angular diameter, the colour. The lamp keeps the folder of the
+    sun-free bake it goes with (custom property "iblbake_bake"). Returns it."""
+    lamp = sun["blender"]
+    obj = bpy.data.objects.get(SUN_LAMP)
+    if obj is None or obj.type != "LIGHT" or obj.data.type != "SUN":
+        obj = bpy.data.objects.new(SUN_LAMP, bpy.data.lights.new(SUN_LAMP, type="SUN"))
+    if scene.collection.all_objects.get(obj.name) is None:
+        scene.collection.objects.link(obj)
+    light = obj.data
+    light.energy = float(lamp["strength"])
+    light.color = [float(c) for c in lamp["color"]]
+    light.angle = math.radians(float(lamp["angle_deg"]))
+    obj.rotation_mode = "XYZ"
+    obj.rotation_euler = [math.radians(float(a)) for a in lamp["rotation_euler_deg"]]
+    obj["iblbake_bake"] = bake_dir or ""
+    return obj
+
+
+class IBLBAKE_OT_add_sun_lamp(bpy.types.Operator):
+    """Add (or update) a Sun lamp with the sun the last bake took out of the world: its direction, Strength = its illuminance, Angle = its diameter, its colour"""
+    bl_idname = "iblbake.add_sun_lamp"
+    bl_label = "Add Sun Lamp"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None:
+            return False
+        sun = last_sun(context, context.scene)
+        return bool(sun and sun.get("found"))
+
+    def execute(self, context):
+        scene = context.scene
+        sun = last_sun(context, scene)
+        if not (sun and sun.get("found")):
+            self.report({"ERROR"}, "iblbake: no sun: bake with Sun: Split first (or the world has none)")
+            return {"CANCELLED"}
+        obj = add_sun_lamp(scene, sun, bake_dir(context, scene))
+        self.report({"INFO"}, "iblbake: %s: %s" % (obj.name, describe.sun_sentence(sun)))
+        return {"FINISHED"}
+
+
+classes = (IBLBAKE_OT_open_output, IBLBAKE_OT_open_preview, IBLBAKE_OT_add_sun_lamp)
 HANDLERS = ((bpy.app.handlers.save_pre, _preview_out_of_save), (bpy.app.handlers.save_post, _preview_back_after_save))

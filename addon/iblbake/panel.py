@@ -292,6 +292,12 @@ def _draw_status(layout, context, scene, plan):
     icon = {folder.UP_TO_DATE: "CHECKMARK", folder.WORLD_CHANGED: "ERROR", folder.SETTINGS_CHANGED: "ERROR"}.get(
         fresh, "FILE_FOLDER")
     _paragraph(layout, folder.last_bake_line(old, fresh), width, icon)
+    sun = old.manifest.get("sun")
+    sun_line = describe.sun_sentence(sun)
+    if sun_line:  # what a bake with Sun: Split found (issue 27)
+        _paragraph(layout, sun_line, width, "LIGHT_SUN")
+        if sun.get("found"):
+            layout.operator(outputs.IBLBAKE_OT_add_sun_lamp.bl_idname, icon="LIGHT_SUN")
 
 
 class IBLBAKE_PT_world(bpy.types.Panel):
@@ -349,7 +355,11 @@ class IBLBAKE_PT_world(bpy.types.Panel):
             _paragraph(box, line, width - 3, "INFO")
         grid = box.grid_flow(row_major=True, columns=2 if narrow else 3, even_columns=True, align=True)
         for name in options.SCENE_OUTPUTS:
-            grid.prop(props, name, toggle=True)
+            if name != "sun":
+                grid.prop(props, name, toggle=True)
+        row = box.row(align=True)  # the sun as a light (issue 27): Off | Split
+        row.label(text="Sun")
+        row.prop(props, "sun", expand=True)
         draw_engines(box, props, columns=2 if narrow else 4)
         layout.prop(props, "force")
 

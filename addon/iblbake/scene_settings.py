@@ -4,11 +4,11 @@ never started yet reads the preferences' defaults, which it would start
 from), the output folder resolved, what the scene's materials need, and
 the world's fingerprint (whether it changed since a bake)."""
 import os
-import re
 
 import bpy
 
 from . import scene_needs, world_reader
+from .core import names
 from .core.needs import needs_from_lobes
 from .core.pipeline import BakeError
 from .core.settings import BakeSettings
@@ -31,17 +31,13 @@ def options_of(context, scene):
     return scene.iblbake if (scene.iblbake.options_initialised or prefs is None) else prefs
 
 
-def _safe(name: str) -> str:
-    """A name as one path component: never empty, never "." or ".."."""
-    s = re.sub(r"[^\w.-]+", "_", name).strip("_")
-    return "untitled" if s.strip(".") == "" else s
-
-
 def resolve_output_dir(scene, template: str) -> str:
     blend = bpy.data.filepath
-    text = template.replace("{blend}", _safe(os.path.splitext(os.path.basename(blend))[0] if blend else "untitled"))
-    text = text.replace("{scene}", _safe(scene.name))
-    text = text.replace("{world}", _safe(scene.world.name if scene.world else "no_world"))
+    try:
+        text = names.fill_template(template, os.path.splitext(os.path.basename(blend))[0] if blend else "untitled",
+                                   scene.name, scene.world.name if scene.world else "no_world")
+    except names.TemplateError as e:
+        raise BakeError(str(e))
     if text.startswith("//") and not blend:
         raise BakeError(_unsaved(template))
     return os.path.abspath(os.path.expanduser(bpy.path.abspath(text)))

@@ -9,6 +9,8 @@ from typing import List, Optional, Tuple
 
 import bpy
 
+from .core import describe
+
 
 @dataclass
 class Run:
@@ -28,6 +30,7 @@ class Last:
     thumbnail: object = None       # preview.png's small sRGB RGBA copy for the panel (describe.thumbnail), or None
     stages: List[Tuple[str, float]] = field(default_factory=list)  # what the user waited for, in seconds
     note: str = ""                 # a line of its own below the status (no file manager: where the files are)
+    sun: Optional[dict] = None     # the manifest's `sun` (a bake with sun="split"), else None
 
 
 RUN: Optional[Run] = None
@@ -54,8 +57,9 @@ def set_baked(scene_name: str, report, stages=()):
     old = last(scene_name)
     thumbnail = report.thumbnail if report.thumbnail is not None else (
         old.thumbnail if old.out_dir == report.out_dir else None)  # unchanged: the same sheet
+    manifest = report.manifest or describe.manifest_of(report.out_dir) or {}
     set_last(scene_name, Last(status=report.summary(), kind="INFO", out_dir=report.out_dir, thumbnail=thumbnail,
-                              stages=list(stages)))
+                              stages=list(stages), sun=manifest.get("sun")))
     redraw(images=True)
 
 

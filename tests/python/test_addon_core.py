@@ -355,3 +355,19 @@ def test_file_lists_count_the_engine_folders(tmp_path):
     assert D.grouped_files(files)[-2:] == [("khronos/ (2 files)", 1000), ("three/ (1 file)", 500)]
     assert D.levels_words([4]) == "specular level 4" and D.levels_words(range(9)) == "9 specular levels"
     assert D.levels_words([0, 1, 2, 3, 5, 6]) == "specular levels 0-3 and 5-6"
+
+
+def test_a_bake_without_the_sun_split_says_it_removes_the_suns_files(tmp_path):
+    """Issue 27's sun in issue 26's folder logic: a bake with Sun: Split holds
+    sun.json (and sun.gltf when found); the Last bake line says so, and a bake
+    with Sun: Off would remove them (the panel asks first)."""
+    src = WorldSource(IMAGE, world="World", image_name="sunset.exr", image_path="/hdri/sunset.exr")
+    split = small(tmp_path, sun="split")
+    pipeline.bake(src, sky(), split)
+    old = F.read_folder(split.out_dir)
+    assert old.outputs.sun and "sun.json" in dict(old.files)
+    assert old.outputs.words().endswith(", Sun: Split")
+    off = F.planned_outputs(pipeline.native_options(small(tmp_path), None), 4)
+    assert not off.sun and F.planned_outputs(pipeline.native_options(split, None), 4).sun
+    assert [g.split(" (")[0] for g in F.losses(old, off, src)] == ["the sun's files"]
+    assert F.losses(old, old.outputs, src) == []

@@ -22,6 +22,7 @@ class Outputs:
     presets: Tuple[str, ...] = ()      # engine presets (their folders)
     preview: bool = False
     formats: Tuple[str, ...] = ("exr",)
+    sun: bool = False                  # the sun as a light (sun.json, sun.gltf: Sun: Split, issue 27)
 
     def words(self) -> str:
         """ "irradiance, 9 specular levels, BRDF LUT, three.js" (the panel's terms)."""
@@ -33,6 +34,8 @@ class Outputs:
         if self.lut:
             out.append("BRDF LUT")
         out += [options.choice_label("presets", p) for p in options.in_table_order("presets", self.presets)]
+        if self.sun:
+            out.append("Sun: Split")
         return ", ".join(out) or "nothing"
 
 
@@ -43,7 +46,8 @@ def outputs_of_manifest(m: dict) -> Outputs:
     spec = [e.get("level") for e in m.get("specular") or [] if isinstance(e, dict)]
     return Outputs(irradiance=bool(m.get("irradiance")), levels=tuple(sorted(v for v in spec if isinstance(v, int))),
                    lut=bool(m.get("brdf_lut")), presets=tuple(sorted(m.get("presets") or {})),
-                   preview=bool(m.get("preview")), formats=tuple(formats) or ("exr",))
+                   preview=bool(m.get("preview")), formats=tuple(formats) or ("exr",),
+                   sun=isinstance(m.get("sun"), dict))
 
 
 def planned_outputs(opts: dict, mip_count: int) -> Outputs:
@@ -55,7 +59,8 @@ def planned_outputs(opts: dict, mip_count: int) -> Outputs:
         levels = tuple(range(first, min(last, mip_count - 1) + 1))
     return Outputs(irradiance=bool(opts.get("irradiance")), levels=levels, lut=bool(opts.get("lut")),
                    presets=tuple(sorted(p.split(":")[0] for p in opts.get("presets") or [])),
-                   preview=bool(opts.get("preview")), formats=tuple(sorted(opts.get("formats") or ["exr"])))
+                   preview=bool(opts.get("preview")), formats=tuple(sorted(opts.get("formats") or ["exr"])),
+                   sun=opts.get("sun") == "split")
 
 
 # -- where a bake came from ------------------------------------------------------
@@ -129,6 +134,8 @@ def _kept(name: str, new: Outputs) -> bool:
         return name.split("/", 1)[0] in new.presets  # a preset's folder, as a whole
     if name == "preview.png":
         return new.preview
+    if name in ("sun.json", "sun.gltf"):
+        return new.sun
     stem, ext = os.path.splitext(name)
     ext = ext[1:]
     if stem == "irradiance":
@@ -175,7 +182,8 @@ def losses(old: FolderBake, new: Outputs, source=None) -> List[str]:
         if kept_numbers:
             text += " as %s" % "/".join(sorted({os.path.splitext(n)[1][1:].upper() for n, _ in levels}))
         out.append(sized(text, levels))
-    for key, text in (("irradiance", "the irradiance"), ("brdf_lut", "the BRDF LUT"), ("preview", "the preview sheet")):
+    for key, text in (("irradiance", "the irradiance"), ("brdf_lut", "the BRDF LUT"), ("preview", "the preview sheet"),
+                      ("sun", "the sun's files")):
         if key in groups:
             out.append(sized(text, groups.pop(key)))
     presets = sorted(k for k in groups if k.startswith("preset:"))
