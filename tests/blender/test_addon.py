@@ -382,12 +382,12 @@ assert addon_utils.enable("iblbake", default_set=True) is not None
 from iblbake import operators, panel, properties, scene_settings
 from iblbake.core import folder
 prefs = bpy.context.preferences.addons["iblbake"].preferences
-prefs.face_size, prefs.presets, prefs.default_output_dir = 16, {{"three"}}, os.path.join(W, "out", "{{world}}")
+prefs.face_size, prefs.presets, prefs.default_output_dir = 32, {{"three"}}, os.path.join(W, "out", "{{world}}")
 bpy.ops.wm.read_homefile(app_template="")  # a new file: load_post starts its scene from the preferences
 scene = bpy.context.scene
 p = scene.iblbake
 out["new_file"] = [p.options_initialised, p.face_size, sorted(p.presets), p.output_dir]
-prefs.face_size = 32  # a later change of the defaults changes no file that has its settings
+prefs.face_size = 48  # a later change of the defaults changes no file that has its settings
 p.presets = {{"three", "khronos"}}  # the World panel's toggles write the scene, never the preferences
 out["after_prefs_change"] = [p.face_size, sorted(p.presets), sorted(prefs.presets)]
 # An unsaved file with a // folder: Bake IBL is greyed out, with the reason.
@@ -414,7 +414,7 @@ panel._forget_plans()
 plan = panel._plan(bpy.context, scene)
 out["world_changed"] = folder.freshness(old, plan.world_fingerprint, plan.settings_hash)
 scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
-p.face_size = 8
+p.face_size = 16
 panel._forget_plans()
 plan = panel._plan(bpy.context, scene)
 out["settings_changed"] = folder.freshness(old, plan.world_fingerprint, plan.settings_hash)
@@ -447,16 +447,16 @@ def test_settings_live_in_the_file_and_the_panel_reads_the_folders_bake(tmp_path
     p = blender_script(tmp_path, SETTINGS_SCRIPT.format(work=str(work), zip=ADDON_ZIP), env)
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
     r = json.loads([ln for ln in p.stdout.splitlines() if ln.startswith("RESULT=")][0][7:])
-    assert r["new_file"] == [True, 16, ["three"], str(work / "out" / "{world}")]
-    assert r["after_prefs_change"] == [16, ["khronos", "three"], ["three"]]
+    assert r["new_file"] == [True, 32, ["three"], str(work / "out" / "{world}")]
+    assert r["after_prefs_change"] == [32, ["khronos", "three"], ["three"]]
     assert r["unsaved_poll"] is False and "save the file first" in r["unsaved_why"] and "//ibl/{world}" in r["unsaved_why"]
     assert r["saved_poll"] is True and r["bake"] == ["FINISHED"]
-    assert r["reopened"] == [16, ["khronos", "three"]]
+    assert r["reopened"] == [32, ["khronos", "three"]]
     assert r["last_bake"].startswith("Last bake: ") and r["last_bake"].endswith(
-        ", the plain colour of world 'World': irradiance, 5 specular levels, BRDF LUT, three.js, Khronos; up to date")
+        ", the plain colour of world 'World': irradiance, 6 specular levels, BRDF LUT, three.js, Khronos; up to date")
     assert "khronos/ (3 files)" in r["files"] and "three/ (1 file)" in r["files"]
     assert r["world_changed"] == "the world changed since" and r["settings_changed"] == "the settings changed since"
-    assert [g.split(" (")[0] for g in r["would_remove"]] == ["specular level 4", "the three.js and Khronos folders"]
+    assert [g.split(" (")[0] for g in r["would_remove"]] == ["specular level 5", "the three.js and Khronos folders"]
     assert "iblbake preview" not in r["images_after_save"]
 
 

@@ -32,6 +32,7 @@ import bpy
 ZIP, WORK, BIG_EXR = sys.argv[sys.argv.index("--") + 1:][:3]
 FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
 CITY = "/usr/share/blender/datafiles/studiolights/world/city.exr"
+SUNSET = "/usr/share/blender/datafiles/studiolights/world/sunset.exr"
 bpy.context.preferences.view.show_splash = False  # read before the first window opens
 RESULT = {"errors": [], "bakes": {}, "cancels": {}, "screenshots": [], "idle": [], "checks": {}}
 SKY_WIDTH = int(os.environ.get("IBLBAKE_GUI_SKY_WIDTH", "1024"))
@@ -461,6 +462,30 @@ def scenario():
     RESULT["checks"]["world_changed"] = status_lines()
     yield from shot("world_changed", scroll="top")
     yield from bake_and_watch("other_source", shot=False, confirm="Return")
+
+    # Issue 27's sun in this layout: Sun: Split (its row in the Bake For box) on sunset.exr, the
+    # sentence and Add Sun Lamp below the Last bake line; Sun: Off again asks before the sun's files go.
+    forest = scene.world
+    scene.world = image_world(SUNSET, "sunset")
+    scene.iblbake.sun = "split"
+    yield 1.0
+    yield from shot("sun_toggle", scroll=6)
+    yield from bake_and_watch("sun_split", shot=False)
+    yield 1.0
+    sun_folder = RESULT["bakes"]["sun_split"]["out"]
+    old = panel._folder_state(sun_folder)[0]
+    RESULT["checks"]["sun"] = dict(status_lines(), sentence=panel.describe.sun_sentence(old.manifest.get("sun")),
+                                   files=sorted(snapshot(sun_folder)),
+                                   poll=in_panel(lambda: bpy.ops.iblbake.add_sun_lamp.poll()))
+    yield from shot("sun_split", scroll="top")
+    in_panel(lambda: bpy.ops.iblbake.add_sun_lamp())
+    RESULT["checks"]["sun"]["lamp"] = [o.data.type for o in scene.objects if o.name == "IBL Sun"]
+    scene.iblbake.sun = "off"
+    yield 1.0
+    yield from bake_and_watch("sun_off", shot=False, confirm="Return")
+    RESULT["checks"]["sun_off"] = {"files": sorted(snapshot(sun_folder)), "status": status_lines()}
+    scene.world = forest
+    yield 1.0
 
     # 4. Open Preview: no Image Editor open, the panel shows the sheet large; with one (the
     # Timeline made an Image Editor), every click reuses it; saving keeps the sheet out of the file.

@@ -249,6 +249,14 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
     assert "specular level 4" in checks["scene_only"]["status"]["last_bake"], checks["scene_only"]
     assert checks["world_changed"]["last_bake"].endswith("; the world changed since"), checks["world_changed"]
     assert res["bakes"]["other_source"]["asked"] and res["bakes"]["other_source"]["status"].startswith("Baked in")
+    # Issue 27's sun: the split's files, its sentence and Add Sun Lamp in the panel; a bake with
+    # Sun: Off asks before it removes them.
+    sun = checks["sun"]
+    assert res["bakes"]["sun_split"]["status"].startswith("Baked in") and not res["bakes"]["sun_split"]["asked"]
+    assert {"sun.json", "sun.gltf"} <= set(sun["files"]) and sun["last_bake"].endswith(", Sun: Split; up to date"), sun
+    assert sun["sentence"].startswith("Sun at ") and sun["poll"] is True and sun["lamp"] == ["SUN"], sun
+    assert res["bakes"]["sun_off"]["asked"] and res["bakes"]["sun_off"]["status"].startswith("Baked in")
+    assert not {"sun.json", "sun.gltf"} & set(checks["sun_off"]["files"]), checks["sun_off"]
     # 3. The file list counts the preset folders: its total is the folder's.
     files, total = export["files"]
     assert total == export["du"] and any(name.startswith("khronos/") for name, _ in files)
@@ -280,6 +288,7 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
     assert "no world" in res["no_world"]["status"] and not res["no_world"]["written"], res["no_world"]
     names = {os.path.basename(shot) for shot in res["screenshots"]}
     assert {"image_during.png", "sky_during.png", "scene_only_dialog.png", "reopened.png", "preferences.png",
-            "export_files.png", "unsaved_relative_folder.png"} <= names, sorted(names)
+            "export_files.png", "unsaved_relative_folder.png", "sun_toggle.png", "sun_split.png",
+            "sun_off_dialog.png"} <= names, sorted(names)
     for shot in res["screenshots"]:
         assert os.path.getsize(shot) > 10000, shot
