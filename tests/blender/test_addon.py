@@ -195,8 +195,9 @@ EXTENSION_ZIP = os.environ.get("IBLBAKE_EXTENSION_ZIP", "")
 needs_zips = pytest.mark.skipif(not (ADDON_ZIP and EXTENSION_ZIP), reason="run through CTest (the zips' paths)")
 EXTENSIONS = blender_version() >= (4, 2)
 
-# Sets the preferences, makes the world a plain colour and bakes it; prints
-# where the module came from.
+# Sets the preferences, starts a new file (its settings start from them:
+# issue 26, the file open when the add-on was enabled keeps its own), makes
+# the world a plain colour and bakes it; prints where the module came from.
 BAKE_PLAIN = (
     "import bpy, sys\n"
     "from {pkg}.core import native\n"
@@ -204,6 +205,7 @@ BAKE_PLAIN = (
     "prefs = bpy.context.preferences.addons[{pkg!r}].preferences\n"
     "prefs.default_output_dir = {out!r}\n"
     "prefs.face_size = 8\n"
+    "bpy.ops.wm.read_homefile(app_template='')\n"
     "bpy.context.scene.world.node_tree.nodes['Background'].inputs['Color'].default_value = (1, 0.5, 0.25, 1)\n"
     "print(bpy.ops.iblbake.bake())\n")
 
