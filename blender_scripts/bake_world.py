@@ -8,7 +8,9 @@
       each .blend file's world, or each image as a world -> DIR/<name>
 
 Exits 1 with the reason on stderr when any bake fails (a batch bakes the
-others first); an earlier bake in a folder survives a failed one.
+others first); an earlier bake in a folder survives a failed one. A bake
+replaces the folder's earlier bake, as scripts expect, and prints what it
+removed (levels, the irradiance, an engine's folder, a bake of another world).
 """
 import argparse
 import math
@@ -154,8 +156,10 @@ def hdri_world(path: str, strength: float, rotation_z: float):
 
 
 def configure(scene, args, out_dir: str, image_only: bool):
+    """The scene's own settings (started from the preferences' defaults if it
+    has none yet), with the command line's options on top."""
     props = scene.iblbake
-    props.use_scene_options = True
+    addon_module("properties").initialise_options(scene)
     for row in addon_module("core.options").rows():
         value = getattr(args, row["name"])
         if value is None or row["name"] == "presets":  # presets: the operator's override below

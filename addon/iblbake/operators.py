@@ -1,24 +1,34 @@
 """The Bake IBL operator and its Cancel button.
 
-From scripts (execute) the bake runs synchronously, start to end. From the
-UI (invoke) it is a modal job, so Blender never freezes: core.job.BakeRun
-runs every slow step off the main thread - the world image is read from its
-file by the native reader on a worker thread, a procedural world is rendered
-by Cycles in a child Blender (world_reader.ChildRender), the bake itself
-runs on a worker thread (the native code releases the GIL) - and the modal
-operator only polls it on a timer, updating the panel's progress bar. Esc
-or the Cancel button stops any stage; the earlier bake stays as it was."""
+From scripts (execute) the bake runs synchronously, start to end, and
+replaces the folder's earlier bake as scripts expect, printing what it
+replaced. From the UI (invoke) it first says what the bake would remove
+from the folder (levels, the irradiance, an engine's folder, or a bake of
+another world) and asks (Blender's dialog: OK bakes, moving away keeps
+everything); then it is a modal job, so Blender never freezes:
+core.job.BakeRun runs every slow step off the main thread - the world image
+is read from its file and baked by a child process at the lowest CPU
+priority (core/worker.py), a procedural world is rendered by Cycles in a
+child Blender (world_reader.ChildRender) - and the modal operator only polls
+it on a timer, redrawing the panel's progress bar when it moves visibly.
+Esc or the Cancel button stops any stage; the earlier bake stays as it was."""
 import time
 
 import bpy
 from bpy.app.handlers import persistent
 
 from . import state, world_reader
-from .core import native, pipeline
+from .core import folder, native, pipeline
 from .core.job import BakeRun, Steps
-from .scene_settings import gather_settings, manifest_extra, scene_needs_for
+from .core.worker import BakeProcess
+from .properties import initialise_options
+from .scene_settings import gather_settings, manifest_extra, scene_needs_for, unsaved_relative_folder
 
 OUR_ERRORS = (pipeline.BakeError, world_reader.WorldError)
+# The panel's bar is redrawn when its percentage changes, at most this often
+# (its stage's name changing redraws at once): each redraw costs the UI a
+# whole window's drawing, which a loaded machine without a GPU feels.
+REDRAW_INTERVAL = 0.5
 
 
 def _words(error, ours=OUR_ERRORS):
@@ -29,10 +39,21 @@ def _words(error, ours=OUR_ERRORS):
 def prepare(context, scene):
     """Everything up to the native bake, on the main thread (scripts):
     settings, needs, world source and pixels. Raises BakeError / WorldError."""
+    initialise_options(scene, context)
     settings = gather_settings(context, scene)
     needs = scene_needs_for(scene, settings)
+    extra = manifest_extra(scene)
     source, pixels = world_reader.read_world(scene, settings.render_width, settings.render_samples)
-    return settings, needs, source, pixels, manifest_extra(scene)
+    return settings, needs, source, pixels, extra
+
+
+def replacing(settings, needs, source):
+    """(the folder's bake or None, what a bake of these settings would remove from it: sentences)."""
+    old = folder.read_folder(settings.out_dir)
+    if old is None:
+        return None, []
+    new = folder.planned_outputs(pipeline.native_options(settings, needs), settings.resolved_mip_count())
+    return old, folder.losses(old, new, source)
 
 
 def _print_stages(stage, fraction, _last=[None]):
@@ -53,6 +74,10 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
     # for one bake: comma-separated names, "NAME:FORMAT" variants allowed.
     presets: bpy.props.StringProperty(name="Presets", default="", options={"HIDDEN", "SKIP_SAVE"})
     override_presets: bpy.props.BoolProperty(name="Override Presets", default=False, options={"HIDDEN", "SKIP_SAVE"})
+    # Set by invoke when it asks first: what would go (one line each), and
+    # that execute, called by the dialog's OK, starts the UI's modal bake.
+    replaced: bpy.props.StringProperty(name="Replaced", default="", options={"HIDDEN", "SKIP_SAVE"})
+    asked: bpy.props.BoolProperty(name="Asked", default=False, options={"HIDDEN", "SKIP_SAVE"})
 
     _running = None  # the running modal bake's operator (one at a time), for poll() and file loads
     _run = None      # this operator's core.job.BakeRun, once invoked
@@ -61,7 +86,14 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return context.scene is not None and IBLBAKE_OT_bake._running is None
+        scene = context.scene
+        if scene is None or IBLBAKE_OT_bake._running is not None:
+            return False
+        why = unsaved_relative_folder(context, scene)
+        if why:
+            cls.poll_message_set(why[0].upper() + why[1:])  # the disabled button's tooltip
+            return False
+        return True
 
     def _fail(self, scene_name, error, out_dir=""):
         state.set_failed(scene_name, error, out_dir)
@@ -75,11 +107,13 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
 
     def _baked(self, scene_name, report, stages=()):
         state.set_baked(scene_name, report, stages)
-        self.report({"INFO"}, report.summary())
+        self.report({"INFO"}, report.summary(folder=True))
         return {"FINISHED"}
 
     # -- scripts: synchronous ------------------------------------------------
     def execute(self, context):
+        if self.asked:  # the dialog's OK (invoke asked first): the UI's bake
+            return self._start(context)
         scene = context.scene
         progress = _print_stages if bpy.app.background else None
         start = time.perf_counter()
@@ -87,6 +121,7 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
             settings, needs, source, pixels, extra = prepare(context, scene)
             if self.override_presets:
                 settings.presets = [n.strip() for n in self.presets.split(",") if n.strip()]
+            old = folder.read_folder(settings.out_dir)
             report = pipeline.bake(source, pixels, settings, needs, progress, extra)
         except OUR_ERRORS as e:
             return self._fail(scene.name, e)
@@ -95,14 +130,49 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         except Exception as e:  # anything else still reaches the user as a message
             return self._fail(scene.name, _words(e))
         report.seconds = time.perf_counter() - start
+        if old is not None and report.status == "baked":  # scripts expect the folder replaced: say what went
+            gone = folder.losses(old, folder.outputs_of_manifest(report.manifest), source)
+            if gone:
+                print("iblbake: replaced the earlier bake in %s: %s" % (report.out_dir, "; ".join(gone)), flush=True)
         return self._baked(scene.name, report)
 
-    # -- the UI: a modal job -------------------------------------------------
+    # -- the UI: asks first, then a modal job --------------------------------
     def invoke(self, context, event):
+        scene = context.scene
+        try:
+            initialise_options(scene, context)
+            settings = gather_settings(context, scene)
+            source = world_reader.classify(scene.world)
+            needs = scene_needs_for(scene, settings)
+            settings.validate()
+            old, gone = replacing(settings, needs, source)
+        except Exception as e:
+            return self._fail(scene.name, _words(e, OUR_ERRORS + (ValueError,)))
+        if gone:
+            self.replaced = "\n".join([old.out_dir] + gone)
+            self.asked = True
+            return invoke_dialog(context.window_manager, self)
+        return self._start(context)
+
+    def draw(self, context):
+        """The dialog: what the bake would remove, before OK."""
+        lines = self.replaced.split("\n")
+        col = self.layout.column(align=True)
+        col.label(text="This bake replaces the folder's bake:", icon="ERROR")
+        col.label(text=lines[0], icon="FILE_FOLDER")
+        col.separator()
+        col.label(text="These would be removed:")
+        for line in lines[1:]:
+            col.label(text=line[0].upper() + line[1:], icon="TRASH")
+        col.separator()
+        col.label(text="OK bakes and replaces them; Esc keeps them.")
+
+    def _start(self, context):
         scene = context.scene
         self._scene_name = scene.name
         clicked = time.perf_counter()
         try:
+            initialise_options(scene, context)
             self._settings = gather_settings(context, scene)
             source = world_reader.classify(scene.world)
             needs = scene_needs_for(scene, self._settings)
@@ -110,7 +180,8 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         except Exception as e:
             return self._fail(scene.name, _words(e, OUR_ERRORS + (ValueError,)))
         self._world, self._frame = scene.world, scene.frame_current
-        steps = Steps(world_reader.file_read_plan, world_reader.read_image_pixels, self._start_render)
+        steps = Steps(world_reader.file_read_plan, world_reader.read_image_pixels, self._start_render,
+                      start_job=lambda *job: BakeProcess(*job).start())
         self._run = BakeRun(source, self._settings, needs, manifest_extra(scene), steps, clicked)
         IBLBAKE_OT_bake._running = self
         state.RUN = state.Run(scene.name, "Starting")
@@ -158,19 +229,23 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
 
     def _status(self, context):
         """The run's stage and fraction, for the panel and the status bar;
-        redrawn only when what they show changes (each redraw costs)."""
+        redrawn only when the bar moves visibly: a new stage at once, a new
+        percentage at most every REDRAW_INTERVAL seconds."""
         stage, fraction = self._run.stage, self._run.fraction
-        if state.RUN is not None:
-            state.RUN.stage, state.RUN.fraction = stage, fraction
+        now = time.perf_counter()
         text = "iblbake: %s %d%% (Esc to cancel)" % (stage, int(100 * fraction))
         if text == self._shown:
             return
-        self._shown = text
+        if state.RUN is not None and stage == state.RUN.stage and now - getattr(self, "_shown_at", 0.0) < REDRAW_INTERVAL:
+            return
+        if state.RUN is not None:
+            state.RUN.stage, state.RUN.fraction = stage, fraction
+        self._shown, self._shown_at = text, now
         try:
             context.workspace.status_text_set(text)
         except (AttributeError, ReferenceError):
             pass
-        state.redraw(context)
+        state.redraw(context, images=False, only_world=True)
 
     def _cleanup(self, context):
         if self._timer is not None:
@@ -194,6 +269,14 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         if run.error is not None:
             return self._fail(self._scene_name, _words(run.error), self._settings.out_dir)
         return self._baked(self._scene_name, run.report, run.stages)
+
+
+def invoke_dialog(wm, op):
+    """Blender's dialog for `op` (its draw()), OK titled "Bake and Replace" where Blender can (4.1+)."""
+    try:
+        return wm.invoke_props_dialog(op, width=420, title="Replace the Earlier Bake?", confirm_text="Bake and Replace")
+    except TypeError:  # before 4.1: OK
+        return wm.invoke_props_dialog(op, width=420)
 
 
 class IBLBAKE_OT_cancel(bpy.types.Operator):
@@ -220,6 +303,7 @@ def _release_on_load(*_args):
     op = IBLBAKE_OT_bake._running
     if op is not None:
         op._run.cancel()
+        op._run.cleanup()
         IBLBAKE_OT_bake._running = None
     state.RUN = None
     state.clear()

@@ -1,6 +1,13 @@
-"""The last bake's files on the desktop: Open Output Folder (the file manager),
+"""The bake's files on the desktop: Open Output Folder (the file manager),
 Open Preview (the preview sheet in an Image Editor) and Add Sun Lamp (the
-sun a bake with sun="split" found, as a Sun lamp)."""
+sun a bake with sun="split" found, as a Sun lamp).
+
+Open Preview opens no window of its own: it shows the sheet in the Image
+Editor that shows it already, else in an Image Editor of this window or
+another one; with none open, the panel shows the sheet large itself. Its
+image ("iblbake preview") is left out of the .blend: saving takes it out of
+the editors for the moment of the save and puts it back after (an image the
+user renamed, or gave a fake user, is theirs and saved)."""
 import math
 import os
 import shutil
@@ -8,13 +15,13 @@ import subprocess
 import sys
 
 import bpy
+from bpy.app.handlers import persistent
 
 from . import state
 from .core import describe
 from .core.pipeline import BakeError
 from .scene_settings import gather_settings
-
-PREVIEW_IMAGE = "iblbake preview"
+from .state import PREVIEW_IMAGE
 
 
 def load_preview(path):
@@ -34,57 +41,119 @@ def load_preview(path):
     return img
 
 
-def show_image(context, img):
-    """img in this screen's Image Editor; with none here, in a new window."""
-    for area in context.screen.areas:
-        if area.type == "IMAGE_EDITOR":
-            area.spaces.active.image = img
-            return
-    bpy.ops.wm.window_new()
-    window = context.window_manager.windows[-1]
-    area = max(window.screen.areas, key=lambda a: a.width * a.height)
-    area.type = "IMAGE_EDITOR"
-    area.spaces.active.image = img
+def image_editors(context):
+    """Every Image Editor, best first: one showing the sheet, then this window's (largest first), then others'."""
+    here = context.window
+    found = []
+    for window in context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == "IMAGE_EDITOR":
+                image = area.spaces.active.image
+                found.append(((image is None or image.name != PREVIEW_IMAGE), window != here,
+                              -area.width * area.height, len(found), area))
+    return [f[-1] for f in sorted(found, key=lambda f: f[:4])]
 
 
 class IBLBAKE_OT_open_preview(bpy.types.Operator):
-    """Show the last bake's preview sheet (irradiance, every specular level, the LUT and spheres lit by the bake) in an Image Editor"""
+    """Show the preview sheet (irradiance, every specular level, the LUT and spheres lit by the bake) in an Image Editor: the one showing it already, else one of this window. With no Image Editor open, the panel shows the sheet large"""
     bl_idname = "iblbake.open_preview"
     bl_label = "Open Preview"
 
     @classmethod
     def poll(cls, context):
-        return context.scene is not None and bool(state.last(context.scene.name).preview)
+        return context.scene is not None and bool(preview_path(context, context.scene))
 
     def execute(self, context):
-        img = load_preview(state.last(context.scene.name).preview)
+        scene = context.scene
+        img = load_preview(preview_path(context, scene))
         if img is None:
             self.report({"ERROR"}, "iblbake: the preview file is gone")
             return {"CANCELLED"}
-        show_image(context, img)
+        editors = image_editors(context)
+        if not editors:
+            state.LARGE_PREVIEW.add(scene.name)
+            state.redraw(context)
+            self.report({"INFO"}, "iblbake: no Image Editor is open: the panel shows the sheet (open an Image "
+                                  "Editor to see it larger there)")
+            return {"FINISHED"}
+        area = editors[0]
+        area.spaces.active.image = img
+        area.tag_redraw()
+        state.LARGE_PREVIEW.discard(scene.name)
         return {"FINISHED"}
 
 
-def _open_folder_fallback(path, proc):
+def bake_dir(context, scene) -> str:
+    """The scene's folder: its last bake's in this session, else the one a
+    bake would go to ("" when there is none: a // folder in an unsaved file)."""
+    out_dir = state.last(scene.name).out_dir
+    if not out_dir:
+        try:
+            out_dir = gather_settings(context, scene).out_dir
+        except (BakeError, ValueError):
+            return ""
+    return out_dir
+
+
+def preview_path(context, scene) -> str:
+    """The sheet of the scene's folder ("" when it has none)."""
+    out_dir = bake_dir(context, scene)
+    path = os.path.join(out_dir, "preview.png") if out_dir else ""
+    return path if path and os.path.isfile(path) else ""
+
+
+# -- the sheet stays out of the .blend ------------------------------------------------
+_SAVED = []  # (area, path) the sheet was taken out of for a save
+
+
+@persistent
+def _preview_out_of_save(*_args):
+    """save_pre: the sheet leaves the editors and bpy.data, unless it is the user's (renamed: another name)."""
+    img = bpy.data.images.get(PREVIEW_IMAGE)
+    if img is None or img.use_fake_user:
+        return
+    path = bpy.path.abspath(img.filepath)
+    wm = bpy.context.window_manager
+    for window in (wm.windows if wm else ()):
+        for area in window.screen.areas:
+            if area.type == "IMAGE_EDITOR" and area.spaces.active.image == img:
+                area.spaces.active.image = None
+                _SAVED.append((area, path))
+    users = bpy.data.user_map(subset={img}).get(img, set())
+    if not [u for u in users if not isinstance(u, bpy.types.Screen)]:  # nothing but editors showed it
+        bpy.data.images.remove(img)
+
+
+@persistent
+def _preview_back_after_save(*_args):
+    """save_post: the sheet back where it was."""
+    saved = list(_SAVED)
+    _SAVED.clear()
+    for area, path in saved:
+        img = load_preview(path)
+        try:
+            if img is not None:
+                area.spaces.active.image = img
+        except ReferenceError:  # the editor is gone
+            pass
+
+
+def _open_folder_fallback(path, proc, scene_name):
     """Checks the file manager's process a moment later; if it failed, says where the files are."""
     def check():
         code = proc.poll()
         if code is None:
             return None  # still running: the file manager is up
         if code != 0:
-            _no_file_manager(path)
+            _no_file_manager(path, scene_name)
         return None
     return check
 
 
-def _no_file_manager(path):
-    scene = bpy.context.scene
-    if scene is not None:
-        last = state.last(scene.name)
-        last.status = "No file manager could be opened: the files are in %s (path copied)" % path
-        state.set_last(scene.name, last)
+def _no_file_manager(path, scene_name):
+    """The panel says where the files are, on a line of its own (the bake's summary stays)."""
+    state.set_note(scene_name, "No file manager could be opened: the path is copied: %s" % path)
     bpy.context.window_manager.clipboard = path
-    state.redraw()
 
 
 class IBLBAKE_OT_open_output(bpy.types.Operator):
@@ -97,8 +166,9 @@ class IBLBAKE_OT_open_output(bpy.types.Operator):
         return context.scene is not None
 
     def execute(self, context):
+        scene = context.scene
         try:
-            path = state.last(context.scene.name).out_dir or gather_settings(context, context.scene).out_dir
+            path = state.last(scene.name).out_dir or gather_settings(context, scene).out_dir
         except BakeError as e:
             self.report({"ERROR"}, "iblbake: %s" % e)
             return {"CANCELLED"}
@@ -109,13 +179,13 @@ class IBLBAKE_OT_open_output(bpy.types.Operator):
             return bpy.ops.wm.path_open(filepath=path)
         opener = shutil.which("xdg-open")
         if opener is None:
-            _no_file_manager(path)
+            _no_file_manager(path, scene.name)
             self.report({"WARNING"}, "iblbake: no file manager (xdg-open) here; the files are in %s "
                                      "(path copied to the clipboard)" % path)
             return {"FINISHED"}
         proc = subprocess.Popen([opener, path], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                 stdin=subprocess.DEVNULL)
-        bpy.app.timers.register(_open_folder_fallback(path, proc), first_interval=3.0)
+        bpy.app.timers.register(_open_folder_fallback(path, proc, scene.name), first_interval=3.0)
         self.report({"INFO"}, "iblbake: opening %s" % path)
         return {"FINISHED"}
 
@@ -128,11 +198,8 @@ def last_sun(context, scene):
     the bake in its output folder; None when neither looked for one."""
     sun = state.last(scene.name).sun
     if sun is None:
-        try:
-            out = gather_settings(context, scene).out_dir
-        except (BakeError, ValueError):
-            return None
-        sun = (describe.manifest_of(out) or {}).get("sun")
+        out = bake_dir(context, scene)
+        sun = (describe.manifest_of(out) or {}).get("sun") if out else None
     return sun if isinstance(sun, dict) else None
 
 
@@ -177,9 +244,10 @@ class IBLBAKE_OT_add_sun_lamp(bpy.types.Operator):
         if not (sun and sun.get("found")):
             self.report({"ERROR"}, "iblbake: no sun: bake with Sun: Split first (or the world has none)")
             return {"CANCELLED"}
-        obj = add_sun_lamp(scene, sun, state.last(scene.name).out_dir)
+        obj = add_sun_lamp(scene, sun, bake_dir(context, scene))
         self.report({"INFO"}, "iblbake: %s: %s" % (obj.name, describe.sun_sentence(sun)))
         return {"FINISHED"}
 
 
 classes = (IBLBAKE_OT_open_output, IBLBAKE_OT_open_preview, IBLBAKE_OT_add_sun_lamp)
+HANDLERS = ((bpy.app.handlers.save_pre, _preview_out_of_save), (bpy.app.handlers.save_post, _preview_back_after_save))

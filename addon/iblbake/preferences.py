@@ -1,19 +1,19 @@
-"""Add-on preferences: the default output folder and the option defaults
-(their rows drawn as the World panel draws the scene's own)."""
+"""Add-on preferences: the defaults a new file's (or a new scene's) settings
+start from, the LUT cache. A file keeps its own settings: changing these
+changes no file that has them already (see properties.py)."""
 import bpy
 from bpy.props import StringProperty
 
 from . import panel
-from .properties import BakeOptionProps
-from .scene_settings import ADDON_ID
+from .properties import ADDON_ID, BakeOptionProps
 
 
 class IBLBAKE_AddonPreferences(BakeOptionProps, bpy.types.AddonPreferences):
     bl_idname = ADDON_ID
 
     default_output_dir: StringProperty(
-        name="Default Output Folder", subtype="DIR_PATH", default="//ibl/{world}",
-        description="Used when a scene names no folder; {blend}, {scene} and {world} are replaced, "
+        name="Output Folder", subtype="DIR_PATH", default="//ibl/{world}",
+        description="Where a new file's bakes go; {blend}, {scene} and {world} are replaced, "
                     "// is the .blend file's folder")
     lut_cache_dir: StringProperty(
         name="LUT Cache", subtype="DIR_PATH", default="",
@@ -23,9 +23,17 @@ class IBLBAKE_AddonPreferences(BakeOptionProps, bpy.types.AddonPreferences):
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
-        layout.prop(self, "default_output_dir")
+        layout.use_property_decorate = False
         layout.prop(self, "lut_cache_dir")
-        panel.draw_options(layout, self)
+        box = layout.box()
+        box.label(text="Defaults for New Files", icon="FILE_NEW")
+        box.label(text="A file keeps its own settings (World Properties > Image-Based Lighting): these fill in "
+                       "the settings of a file or scene that has none yet.")
+        box.prop(self, "default_output_dir")
+        sub = box.column()
+        sub.use_property_split = False  # the toggles carry their own labels
+        panel.draw_engines(sub, self)
+        panel.draw_options(box, self)
 
 
 classes = (IBLBAKE_AddonPreferences,)

@@ -1,21 +1,19 @@
-"""What a bake of a scene is asked to do, read from bpy: the add-on
-preferences' defaults (or the scene's own options) and the scene's choices
-as one core.settings.BakeSettings, the output folder resolved, and what the
-scene's materials need."""
+"""What a bake of a scene is asked to do, read from bpy: the scene's options
+and choices as one core.settings.BakeSettings (a scene whose options were
+never started yet reads the preferences' defaults, which it would start
+from), the output folder resolved, what the scene's materials need, and
+the world's fingerprint (whether it changed since a bake)."""
 import os
 
 import bpy
 
-from . import scene_needs
+from . import scene_needs, world_reader
 from .core import names
 from .core.needs import needs_from_lobes
 from .core.pipeline import BakeError
 from .core.settings import BakeSettings
 from .core.options import SCENE_OUTPUTS
-from .properties import ENGINE_ITEMS, ROWS
-
-ADDON_ID = __package__  # "iblbake", or "bl_ext.<repo>.iblbake" as a 4.2+ extension
-
+from .properties import ADDON_ID, ENGINE_ITEMS, ROWS
 
 
 def addon_preferences(context=None):
@@ -27,9 +25,10 @@ def addon_preferences(context=None):
 
 
 def options_of(context, scene):
-    """Where the bake's options come from: the scene's own, or the preferences'."""
+    """Where the bake's options come from: the scene's own, or, before they
+    were started (properties.initialise_options), the preferences' they start from."""
     prefs = addon_preferences(context)
-    return scene.iblbake if (scene.iblbake.use_scene_options or prefs is None) else prefs
+    return scene.iblbake if (scene.iblbake.options_initialised or prefs is None) else prefs
 
 
 def resolve_output_dir(scene, template: str) -> str:
@@ -40,14 +39,24 @@ def resolve_output_dir(scene, template: str) -> str:
     except names.TemplateError as e:
         raise BakeError(str(e))
     if text.startswith("//") and not blend:
-        raise BakeError("the output folder %r is relative to the .blend file, which is not saved yet: "
-                        "save the file, or choose an absolute folder" % template)
+        raise BakeError(_unsaved(template))
     return os.path.abspath(os.path.expanduser(bpy.path.abspath(text)))
 
 
 def output_template(context, scene) -> str:
     prefs = addon_preferences(context)
     return scene.iblbake.output_dir or (prefs.default_output_dir if prefs else "") or "//ibl/{world}"
+
+
+def unsaved_relative_folder(context, scene) -> str:
+    """Why a bake cannot go anywhere yet ("" when it can): the folder is
+    relative to the .blend file (//), which is not saved. Cheap: Bake IBL's poll() asks it."""
+    template = output_template(context, scene)
+    return _unsaved(template) if template.startswith("//") and not bpy.data.filepath else ""
+
+
+def _unsaved(template):
+    return "save the file first: the folder %s is relative to it (or choose an absolute folder)" % template
 
 
 def engine_names(props) -> list:
@@ -65,8 +74,7 @@ def option_value(row, props):
 
 
 def gather_settings(context, scene) -> BakeSettings:
-    """The preferences' defaults (or the scene's own options) and the scene's
-    choices, as one BakeSettings."""
+    """The scene's options and choices, as one BakeSettings."""
     prefs = addon_preferences(context)
     props = scene.iblbake
     src = options_of(context, scene)
@@ -86,5 +94,8 @@ def scene_needs_for(scene, settings: BakeSettings):
 
 
 def manifest_extra(scene) -> dict:
-    """What the manifest's "blender" section says about where the bake came from."""
-    return {"scene": scene.name, "blend_file": bpy.data.filepath or None, "blender_version": bpy.app.version_string}
+    """What the manifest's "blender" section says about where the bake came
+    from; world_fingerprint (world_reader.fingerprint) lets the panel tell,
+    after the file is reopened, whether the world changed since."""
+    return {"scene": scene.name, "blend_file": bpy.data.filepath or None, "blender_version": bpy.app.version_string,
+            "world_fingerprint": world_reader.fingerprint(scene.world)}

@@ -12,8 +12,12 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <map>
 #include <new>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -23,6 +27,61 @@
 #include "iblbake/pipeline/options.h"
 
 namespace {
+// The earlier bake's manifest in `dir` (null when there is none): the CLI
+// replaces a folder as scripts expect, and says what went.
+nlohmann::json earlier_manifest(const std::string& dir) {
+    std::ifstream f(std::filesystem::path(dir) / "manifest.json");
+    if (!f) return nullptr;
+    nlohmann::json m = nlohmann::json::parse(f, nullptr, false);
+    return m.is_object() && m.value("generator", "") == "iblbake" && m.contains("files") && m["files"].is_object()
+               ? m
+               : nlohmann::json(nullptr);
+}
+
+// What a bake's manifest says it was made from: Blender's world, else the source file's name.
+std::string made_from(const nlohmann::json& m) {
+    if (m.contains("blender") && m["blender"].is_object() && m["blender"].value("world", nlohmann::json()).is_string())
+        return "world '" + m["blender"]["world"].get<std::string>() + "'";
+    const std::string path = m.contains("source") && m["source"].is_object() ? m["source"].value("path", "") : "";
+    return std::filesystem::path(path).filename().string();
+}
+
+// "the bake of forest.exr; removed specular_5-8.exr, three/ (2 files)": what
+// the new bake (manifest `now`) replaced of the earlier one; "" for nothing.
+std::string replaced(const nlohmann::json& before, const nlohmann::json& now) {
+    std::vector<std::string> parts;
+    const std::string was = made_from(before);
+    if (was != made_from(now)) parts.push_back("the bake of " + was);
+    std::map<std::string, std::set<int>> levels;  // extension -> levels gone
+    std::map<std::string, int> folders;           // folder -> files gone
+    std::vector<std::string> gone;
+    for (const auto& [name, entry] : before["files"].items()) {
+        if (now["files"].contains(name)) continue;
+        const size_t slash = name.find('/');
+        int level = -1;
+        char ext[8] = {0};
+        if (slash != std::string::npos) ++folders[name.substr(0, slash)];
+        else if (std::sscanf(name.c_str(), "specular_%d.%7s", &level, ext) == 2) levels[ext].insert(level);
+        else gone.push_back(name);
+    }
+    for (const auto& [ext, set] : levels) {
+        std::string runs;
+        for (auto it = set.begin(); it != set.end();) {
+            int first = *it, last = first;
+            while (++it != set.end() && *it == last + 1) last = *it;
+            runs += (runs.empty() ? "" : ",") + std::to_string(first) + (last > first ? "-" + std::to_string(last) : "");
+        }
+        gone.push_back("specular_" + runs + "." + ext);
+    }
+    for (const auto& [dir, n] : folders) gone.push_back(dir + "/ (" + std::to_string(n) + (n == 1 ? " file)" : " files)"));
+    std::string files;
+    for (const std::string& g : gone) files += (files.empty() ? "" : ", ") + g;
+    if (!files.empty()) parts.push_back("removed " + files);
+    std::string out;
+    for (const std::string& p : parts) out += (out.empty() ? "" : "; ") + p;
+    return out;
+}
+
 // The presets table (docs/export.md), one block per preset.
 void print_presets() {
     for (const auto& p : iblbake::presets_json()) {
@@ -202,6 +261,7 @@ int main(int argc, char** argv) {
             if (stage != "reading source") g_reading = false;
             return g_signal == 0;
         };
+        const nlohmann::json before = earlier_manifest(outdir);
         const nlohmann::json m = bake_file(source, outdir, plan, progress, no_cache ? nullptr : &cache);
         g_reading = false;
         for (const auto& w : m["warnings"]) std::cerr << "iblbake: warning: " << w.get<std::string>() << "\n";
@@ -228,6 +288,10 @@ int main(int argc, char** argv) {
                         files += (files.empty() ? "" : ", ") + name + "/" + file.get<std::string>();
                     std::printf("  %-9s %s\n", name.c_str(), files.c_str());
                 }
+            const std::string note = before.is_null() ? "" : replaced(before, m);
+            if (!note.empty())
+                std::printf("replaced the earlier bake in %s: %s\n", io::printable(outdir).c_str(),
+                            io::printable(note).c_str());
         }
         return 0;
     } catch (const Cancelled& e) {

@@ -47,18 +47,28 @@ void bind_geometry(pybind11::module_& m) {
         "OpenImageIO plugin, which the self-contained wheels do not carry).");
     m.def(
         "read_image",
-        [](const std::string& path, bool info) -> pybind11::object {
+        [](const std::string& path, bool info, const pybind11::object& progress) -> pybind11::object {
+            if (!progress.is_none() && !pybind11::isinstance<pybind11::function>(progress))
+                throw pybind11::value_error("progress must be callable");
+            io::ReadProgress report;
+            if (!progress.is_none())
+                report = [&progress](double f) {
+                    pybind11::gil_scoped_acquire gil;
+                    try {
+                        progress(f);
+                    } catch (pybind11::error_already_set&) {  // a report only: its failure stops no read
+                    }
+                };
             io::LoadedImage li;
             {
                 pybind11::gil_scoped_release release;
-                li = io::read_image(path);
+                li = io::read_image(path, report);
             }
-            pybind11::array_t<float> a({li.image.height, li.image.width, 3});
-            float* dst = a.mutable_data();
-            {  // a large image's copy must not hold the GIL (Blender's UI waits on it)
-                pybind11::gil_scoped_release release;
-                std::memcpy(dst, li.image.pixels.data(), li.image.pixels.size() * sizeof(float));
-            }
+            // The decoded pixels themselves, not a copy (an 8K image is 400 MB;
+            // copying it took seconds on a loaded machine): the array owns them.
+            auto* pixels = new FloatBuffer(std::move(li.image.pixels));
+            const pybind11::capsule owner(pixels, [](void* p) { delete static_cast<FloatBuffer*>(p); });
+            pybind11::array_t<float> a({li.image.height, li.image.width, 3}, pixels->data(), owner);
             if (!info) return pybind11::object(std::move(a));
             pybind11::dict d;
             d["channels"] = li.source_channels;
@@ -66,9 +76,11 @@ void bind_geometry(pybind11::module_& m) {
             d["format"] = li.format;
             return pybind11::make_tuple(std::move(a), d);
         },
-        pybind11::arg("path"), pybind11::arg("info") = false,
+        pybind11::arg("path"), pybind11::arg("info") = false, pybind11::arg("progress") = pybind11::none(),
         "Read an image as the bake does: (H, W, 3) float32, linear. With info=True: (array, {'channels': as "
-        "stored, 'linearised': an integer sRGB file was decoded, 'format': OpenImageIO's name}).");
+        "stored, 'linearised': an integer sRGB file was decoded, 'format': OpenImageIO's name}). progress, "
+        "when given, is called with the share of rows decoded (0..1) after each band of an EXR or PNG file's "
+        "rows (once at the end for other formats), on the reading thread.");
     m.def(
         "write_exr",
         [](const std::string& path, const pybind11::handle& image) {

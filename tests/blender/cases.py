@@ -88,7 +88,6 @@ def empty_scene(face_size=32):
     for obj in list(scene.objects):
         bpy.data.objects.remove(obj)
     p = scene.iblbake
-    p.use_scene_options = True
     p.auto_skip = True  # "Bake For: This Scene's Materials" (the UI's default bakes every roughness)
     p.face_size, p.irradiance_size, p.lut_size = face_size, 8, 32
     return scene

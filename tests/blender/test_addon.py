@@ -195,8 +195,9 @@ EXTENSION_ZIP = os.environ.get("IBLBAKE_EXTENSION_ZIP", "")
 needs_zips = pytest.mark.skipif(not (ADDON_ZIP and EXTENSION_ZIP), reason="run through CTest (the zips' paths)")
 EXTENSIONS = blender_version() >= (4, 2)
 
-# Sets the preferences, makes the world a plain colour and bakes it; prints
-# where the module came from.
+# Sets the preferences, starts a new file (its settings start from them:
+# issue 26, the file open when the add-on was enabled keeps its own), makes
+# the world a plain colour and bakes it; prints where the module came from.
 BAKE_PLAIN = (
     "import bpy, sys\n"
     "from {pkg}.core import native\n"
@@ -204,6 +205,7 @@ BAKE_PLAIN = (
     "prefs = bpy.context.preferences.addons[{pkg!r}].preferences\n"
     "prefs.default_output_dir = {out!r}\n"
     "prefs.face_size = 8\n"
+    "bpy.ops.wm.read_homefile(app_template='')\n"
     "bpy.context.scene.world.node_tree.nodes['Background'].inputs['Color'].default_value = (1, 0.5, 0.25, 1)\n"
     "print(bpy.ops.iblbake.bake())\n")
 
@@ -370,6 +372,141 @@ def test_the_clis_rotation_turns_the_world_as_blenders_mapping_node(tmp_path):
     for name in ["irradiance.exr"] + ["specular_%d.exr" % m for m in range(6)]:  # half floats: 2^-11 apart
         np.testing.assert_allclose(read(tmp_path / "addon" / name), read(tmp_path / "cli" / name), rtol=1e-3,
                                    atol=1.6e-3, err_msg=name)
+
+
+# --- issue 26: the file's settings, the folder's bake, what a bake replaces ----------
+SETTINGS_SCRIPT = r'''
+import bpy, addon_utils, json, os, sys
+W = {work!r}
+out = {{}}
+bpy.ops.preferences.addon_install(filepath={zip!r})
+assert addon_utils.enable("iblbake", default_set=True) is not None
+from iblbake import operators, panel, properties, scene_settings
+from iblbake.core import folder
+prefs = bpy.context.preferences.addons["iblbake"].preferences
+prefs.face_size, prefs.presets, prefs.default_output_dir = 32, {{"three"}}, os.path.join(W, "out", "{{world}}")
+bpy.ops.wm.read_homefile(app_template="")  # a new file: load_post starts its scene from the preferences
+scene = bpy.context.scene
+p = scene.iblbake
+out["new_file"] = [p.options_initialised, p.face_size, sorted(p.presets), p.output_dir]
+prefs.face_size = 48  # a later change of the defaults changes no file that has its settings
+p.presets = {{"three", "khronos"}}  # the World panel's toggles write the scene, never the preferences
+out["after_prefs_change"] = [p.face_size, sorted(p.presets), sorted(prefs.presets)]
+# An unsaved file with a // folder: Bake IBL is greyed out, with the reason.
+p.output_dir = "//ibl/{{world}}"
+out["unsaved_poll"] = bpy.ops.iblbake.bake.poll()
+out["unsaved_why"] = scene_settings.unsaved_relative_folder(bpy.context, scene)
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(W, "a.blend"))
+out["saved_poll"] = bpy.ops.iblbake.bake.poll()
+scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 0.5, 0.25, 1)
+out["bake"] = sorted(bpy.ops.iblbake.bake())
+bpy.ops.wm.save_mainfile()
+# Reopened: the settings are the file's, the panel reads the folder's manifest.
+prefs.face_size = 64
+bpy.ops.wm.open_mainfile(filepath=os.path.join(W, "a.blend"))
+scene = bpy.context.scene
+p = scene.iblbake
+out["reopened"] = [p.face_size, sorted(p.presets)]
+plan = panel._plan(bpy.context, scene)
+old = panel._folder_state(plan.folder)[0]
+out["last_bake"] = folder.last_bake_line(old, folder.freshness(old, plan.world_fingerprint, plan.settings_hash))
+out["files"] = [n for n, _ in panel.describe.grouped_files(panel._folder_state(plan.folder)[1])]
+scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 3.0
+panel._forget_plans()
+plan = panel._plan(bpy.context, scene)
+out["world_changed"] = folder.freshness(old, plan.world_fingerprint, plan.settings_hash)
+scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
+p.face_size = 16
+panel._forget_plans()
+plan = panel._plan(bpy.context, scene)
+out["settings_changed"] = folder.freshness(old, plan.world_fingerprint, plan.settings_hash)
+# What the UI's bake would ask about: fewer levels, no engines.
+p.presets = set()
+settings = scene_settings.gather_settings(bpy.context, scene)
+old, gone = operators.replacing(settings, scene_settings.scene_needs_for(scene, settings),
+                                operators.world_reader.classify(scene.world))
+out["would_remove"] = gone
+# The preview sheet an Image Editor showed is not saved with the file.
+from iblbake import outputs
+outputs.load_preview(os.path.join(plan.folder, "preview.png"))
+bpy.ops.wm.save_mainfile()
+out["images_after_save"] = [i.name for i in bpy.data.images]
+print("RESULT=" + json.dumps(out))
+'''
+
+
+@needs_zips
+def test_settings_live_in_the_file_and_the_panel_reads_the_folders_bake(tmp_path):
+    """Issue 26: a new file's settings start from the preferences' defaults,
+    then are the file's (a later change of the defaults, or a toggle in the
+    World panel, changes nothing else); an unsaved file with a // folder
+    cannot bake; after reopening, the panel says when and what the folder's
+    bake is and whether the world or the settings changed since; the UI's
+    bake would say what it removes; the preview sheet is not saved."""
+    env = isolated_env(tmp_path)
+    work = tmp_path / "work"
+    work.mkdir()
+    p = blender_script(tmp_path, SETTINGS_SCRIPT.format(work=str(work), zip=ADDON_ZIP), env)
+    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
+    r = json.loads([ln for ln in p.stdout.splitlines() if ln.startswith("RESULT=")][0][7:])
+    assert r["new_file"] == [True, 32, ["three"], str(work / "out" / "{world}")]
+    assert r["after_prefs_change"] == [32, ["khronos", "three"], ["three"]]
+    assert r["unsaved_poll"] is False and "save the file first" in r["unsaved_why"] and "//ibl/{world}" in r["unsaved_why"]
+    assert r["saved_poll"] is True and r["bake"] == ["FINISHED"]
+    assert r["reopened"] == [32, ["khronos", "three"]]
+    assert r["last_bake"].startswith("Last bake: ") and r["last_bake"].endswith(
+        ", the plain colour of world 'World': irradiance, 6 specular levels, BRDF LUT, three.js, Khronos; up to date")
+    assert "khronos/ (3 files)" in r["files"] and "three/ (1 file)" in r["files"]
+    assert r["world_changed"] == "the world changed since" and r["settings_changed"] == "the settings changed since"
+    assert [g.split(" (")[0] for g in r["would_remove"]] == ["specular level 5", "the three.js and Khronos folders"]
+    assert "iblbake preview" not in r["images_after_save"]
+
+
+OLD_FILE = r'''
+import bpy
+bpy.context.scene["iblbake"] = {{"use_scene_options": {own}, "face_size": 48}}
+bpy.ops.wm.save_as_mainfile(filepath={path!r})
+'''
+
+
+@needs_zips
+def test_an_older_file_keeps_what_it_baked_with(tmp_path):
+    """A file saved before issue 26: its scene either used the preferences
+    (no Scene Options: it now starts from the preferences' values) or had
+    its own options (kept)."""
+    env = isolated_env(tmp_path)
+    for own in (0, 1):
+        path = str(tmp_path / ("old%d.blend" % own))
+        q = blender_script(tmp_path, OLD_FILE.format(own=own, path=path), env, name="old.py")
+        assert q.returncode == 0, q.stderr
+    p = blender_script(tmp_path, "import bpy, addon_utils\n"
+                       "bpy.ops.preferences.addon_install(filepath=%r)\n"
+                       "assert addon_utils.enable('iblbake', default_set=True) is not None\n"
+                       "bpy.context.preferences.addons['iblbake'].preferences.face_size = 24\n"
+                       "for own in (0, 1):\n"
+                       "    bpy.ops.wm.open_mainfile(filepath=%r %% own)\n"
+                       "    p = bpy.context.scene.iblbake\n"
+                       "    print('OLD%%d=%%s %%d' %% (own, p.options_initialised, p.face_size))\n"
+                       % (ADDON_ZIP, str(tmp_path / "old%d.blend")), env)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
+    assert "OLD0=True 24" in p.stdout and "OLD1=True 48" in p.stdout, p.stdout
+
+
+def test_headless_bakes_replace_the_folder_and_print_what_went(tmp_path):
+    """bake_world.py replaces the folder, as scripts expect, and says what
+    the earlier bake had that this one has not."""
+    out = str(tmp_path / "out")
+    opts = ["--face-size", "32", "--irradiance-size", "8", "--lut-size", "32"]
+    p = bake_world("--hdri", FOREST, "--out", out, *opts, "--preset", "three")
+    assert p.returncode == 0 and "replaced" not in p.stdout, p.stdout + p.stderr
+    p = bake_world("--hdri", FOREST, "--out", out, "--face-size", "16", "--irradiance-size", "8", "--lut-size", "32")
+    assert p.returncode == 0, p.stdout + p.stderr
+    line = [ln for ln in p.stdout.splitlines() if ln.startswith("iblbake: replaced the earlier bake in")]
+    assert len(line) == 1 and "specular level 5 (" in line[0] and "the three.js folder (" in line[0], p.stdout
+    assert not os.path.exists(os.path.join(out, "three"))
+    city = "/usr/share/blender/datafiles/studiolights/world/city.exr"
+    p = bake_world("--hdri", city, "--out", out, "--face-size", "16", "--irradiance-size", "8", "--lut-size", "32")
+    assert "iblbake: replaced the earlier bake in %s: the bake of forest.exr (" % out in p.stdout, p.stdout
 
 
 SUNSET = "/usr/share/blender/datafiles/studiolights/world/sunset.exr"

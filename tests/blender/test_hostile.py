@@ -56,10 +56,10 @@ def test_d3_a_truncated_output_is_baked_again(tmp_path):
     spec0.write_bytes(spec0.read_bytes()[:300])
     p = bake_world("--hdri", FOREST, "--out", str(out), *SMALL)
     assert p.returncode == 0, p.stderr
-    assert "nothing to do" not in p.stdout
+    assert "Nothing to bake" not in p.stdout
     assert spec0.stat().st_size == size
     p = bake_world("--hdri", FOREST, "--out", str(out), *SMALL)  # negative control: now unchanged
-    assert "nothing to do" in p.stdout, p.stdout[-2000:]
+    assert "Nothing to bake" in p.stdout, p.stdout[-2000:]
 
 
 def test_d17_negative_strength_and_square_source_warn(tmp_path):

@@ -2,18 +2,24 @@
 
   blender --factory-startup -p 0 0 W H --python gui_session.py -- ZIP WORK BIG_EXR
 
-Installs the add-on from the built zip, shows World Properties, and clicks
-Bake IBL the way the UI does (the operator's invoke, then its modal job) for
-an 8K image world and a Sky Texture world. A timer that runs every 10 ms
-watches the event loop: the longest gap between two of its runs is the
-longest the UI stood still. It records the panel's progress property and
-stage, presses Esc (xdotool, a real key event) or the Cancel button's
-operator at each stage of further bakes, checks that the earlier bake is
-untouched, takes screenshots (ImageMagick's import) and writes
-WORK/result.json. Numbers are judged by test_gui.py."""
+Installs the add-on from the built zip and shows World Properties in the
+factory layout's own Properties editor, at Blender's default width (the
+screenshots are of that editor, scrolled to what each one shows). Clicks
+Bake IBL the way the UI does (the operator's invoke, then its modal job)
+for an 8K image world and a Sky Texture world. A timer that runs every 10 ms
+watches the event loop: the gaps between its runs are how long the UI stood
+still, recorded one by one, during the bakes and during idle windows of
+the same run (the Properties editor redrawn every 50 ms, as it is at most
+while baking). It records the panel's progress and stage, answers Blender's
+dialog before a bake that would remove files (Esc keeps them, Return bakes),
+presses Esc (xdotool, a real key event) or the Cancel button's operator at
+each stage of further bakes and checks that the earlier bake is untouched,
+reopens the saved file, opens the preferences, takes screenshots (ImageMagick's
+import) and writes WORK/result.json. Numbers are judged by test_gui.py."""
 import hashlib
 import json
 import os
+import shutil
 import subprocess
 import sys
 import threading
@@ -24,8 +30,11 @@ import addon_utils
 import bpy
 
 ZIP, WORK, BIG_EXR = sys.argv[sys.argv.index("--") + 1:][:3]
+FOREST = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
+CITY = "/usr/share/blender/datafiles/studiolights/world/city.exr"
+SUNSET = "/usr/share/blender/datafiles/studiolights/world/sunset.exr"
 bpy.context.preferences.view.show_splash = False  # read before the first window opens
-RESULT = {"errors": [], "bakes": {}, "cancels": {}, "screenshots": []}
+RESULT = {"errors": [], "bakes": {}, "cancels": {}, "screenshots": [], "idle": [], "checks": {}}
 SKY_WIDTH = int(os.environ.get("IBLBAKE_GUI_SKY_WIDTH", "1024"))
 
 
@@ -41,10 +50,11 @@ def schedstat():
 
 
 class Pulse:
-    """A 10 ms app timer: the gaps between its runs are the UI's stalls. Each
-    gap is also told without the time the main thread stood runnable waiting
-    for a CPU (the kernel's schedstat): on a loaded machine that part is the
-    load's, the rest is the main thread working or blocked (on the GIL, say)."""
+    """A 10 ms app timer: the gaps between its runs are the UI's stalls, kept
+    one by one (for the longest and the 99th percentile). Each gap is also
+    told without the time the main thread stood runnable waiting for a CPU
+    (the kernel's schedstat): on a loaded machine that part is the load's,
+    the rest is the main thread working or blocked."""
 
     def __init__(self):
         self.last = None
@@ -53,12 +63,13 @@ class Pulse:
 
     def __call__(self):
         now = time.perf_counter()
-        cpu, wait = schedstat()
+        _, wait = schedstat()
         cpu = time.thread_time()
         run = addon("state").RUN
         label = run.stage if run is not None else self.label
         if self.last is not None:
             gap = now - self.last
+            self.all.append(gap)
             own = gap - (wait - self.last_wait)
             if gap > self.gaps.get(label, 0.0):
                 self.gaps[label] = gap
@@ -76,6 +87,7 @@ class Pulse:
 
     def reset(self, label):
         self.gaps, self.own, self.cpu, self.ticks, self.trace, self.label = {}, {}, {}, {}, [], label
+        self.all = []       # every gap (s), in order
         self.last_cpu = time.thread_time()
         self.code = {}      # our main-thread callbacks: name -> longest call (s)
         self.last = time.perf_counter()
@@ -131,6 +143,20 @@ def addon(submodule):
     return sys.modules[ADDON[0] + "." + submodule]
 
 
+def prefs():
+    return bpy.context.preferences.addons[ADDON[0]].preferences
+
+
+def shot(name, whole=False, scroll=None):
+    """A screenshot (generator: the caller yields from it), scrolled first
+    ("top", or steps of 40 pixels down) and redrawn."""
+    if scroll is not None:
+        scroll_to(scroll)
+        yield 0.8
+    screenshot(name, whole)
+    yield 0.8
+
+
 def screenshot(name, whole=False):
     """The Properties editor (or the whole screen) as the X server shows it (ImageMagick's import)."""
     path = os.path.join(WORK, name + ".png")
@@ -141,14 +167,28 @@ def screenshot(name, whole=False):
     RESULT["screenshots"].append(path)
 
 
-def press_escape():
-    """A real Esc key press through the X server, with the pointer over the window."""
+def scroll_to(where):
+    """Scrolls the Properties editor: "top", or down by `where` steps of 40 pixels."""
+    win, area, region = properties_area()
+    with bpy.context.temp_override(window=win, area=area, region=region):
+        if where == "top":
+            for _ in range(60):
+                bpy.ops.view2d.scroll_up(deltax=0, deltay=40)
+        else:
+            for _ in range(where):
+                bpy.ops.view2d.scroll_down(deltax=0, deltay=40)
+
+
+def press(key, move=True):
+    """A real key press through the X server, with the pointer over the window
+    (move=False: where it is, over a dialog, which moving away would close)."""
     win = bpy.context.window_manager.windows[0]
-    subprocess.Popen(["sh", "-c", "xdotool mousemove %d %d key Escape" % (win.width // 2, win.height // 2)])
+    where = "xdotool mousemove %d %d " % (win.width // 2, win.height // 2) if move else "xdotool "
+    subprocess.Popen(["sh", "-c", where + "key " + key])
 
 
 def properties_area():
-    """The largest Properties editor (the 3D View turned into one, see scenario())."""
+    """The factory layout's Properties editor (Blender's default width)."""
     win = bpy.context.window_manager.windows[0]
     areas = [a for a in win.screen.areas if a.type == "PROPERTIES"]
     if not areas:
@@ -157,23 +197,34 @@ def properties_area():
     return win, area, next(r for r in area.regions if r.type == "WINDOW")
 
 
-def click_bake():
+def in_panel(fn):
+    """fn() in the Properties editor's context, as a click there runs it."""
     win, area, region = properties_area()
     with bpy.context.temp_override(window=win, area=area, region=region, screen=win.screen):
-        return bpy.ops.iblbake.bake("INVOKE_DEFAULT")
+        return fn()
+
+
+def click_bake():
+    return in_panel(lambda: bpy.ops.iblbake.bake("INVOKE_DEFAULT"))
 
 
 def snapshot(folder):
-    """Every file's name and sha256: an earlier bake is intact when this is unchanged."""
+    """Every file's name and sha256, preset folders included: an earlier bake is intact when this is unchanged."""
     out = {}
-    for name in sorted(os.listdir(folder)):
-        with open(os.path.join(folder, name), "rb") as f:
-            out[name] = hashlib.sha256(f.read()).hexdigest()
+    for root, _dirs, files in os.walk(folder):
+        for name in sorted(files):
+            path = os.path.join(root, name)
+            with open(path, "rb") as f:
+                out[os.path.relpath(path, folder)] = hashlib.sha256(f.read()).hexdigest()
     return out
 
 
-def image_world(path):
-    world = bpy.data.worlds.new("big image")
+def du(folder):
+    return sum(os.path.getsize(os.path.join(r, f)) for r, _d, fs in os.walk(folder) for f in fs)
+
+
+def image_world(path, name="big image"):
+    world = bpy.data.worlds.new(name)
     world.use_nodes = True
     nt = world.node_tree
     env = nt.nodes.new("ShaderNodeTexEnvironment")
@@ -193,49 +244,71 @@ def sky_world():
     return world
 
 
-def wait_idle():
-    state = addon("state")
-    while state.RUN is not None:
-        yield 0.05
+def status_lines():
+    """What the panel says below the button: this session's result, its note, the folder's Last bake line."""
+    scene = bpy.context.scene
+    panel, folder = addon("panel"), addon("core.folder")
+    plan = panel._plan(bpy.context, scene)
+    old = panel._folder_state(plan.folder)[0] if plan.folder else None
+    last = addon("state").last(scene.name)
+    return {"status": last.status, "note": last.note,
+            "last_bake": folder.last_bake_line(old, folder.freshness(old, plan.world_fingerprint,
+                                                                     plan.settings_hash)) if old else ""}
 
 
-def bake_and_watch(key):
-    """Clicks Bake and follows it to the end (the generator's caller waits)."""
+def bake_and_watch(key, shot=True, confirm=None):
+    """Clicks Bake and follows it to the end (the generator's caller waits).
+    confirm: the key that answers Blender's dialog, if the bake asks first."""
     state = addon("state")
     PULSE.reset(key)
     start = time.perf_counter()
     result = click_bake()
-    shot, past = False, None
-    while state.RUN is not None:
+    asked = "RUNNING_MODAL" in result and state.RUN is None
+    if confirm:
+        yield 1.0
+        screenshot(key + "_dialog", whole=True)
+        yield 0.7
+        press(confirm, move=False)
+        yield 1.0
+    shot_taken, past = not shot, None
+    deadline = time.perf_counter() + 900
+    while state.RUN is not None and time.perf_counter() < deadline:
         # A quarter second past "Starting", once the panel has redrawn the
         # bar (a fast bake's integration stages can pass between two polls;
         # reading or rendering lasts longer).
         if past is None and state.RUN.stage != "Starting":
             past = time.perf_counter()
-        if not shot and past is not None and time.perf_counter() - past > 0.25:
+        if not shot_taken and past is not None and time.perf_counter() - past > 0.25:
             screenshot(key + "_during")
-            shot = True
+            shot_taken = True
         yield 0.02
     scene = bpy.context.scene
     RESULT["bakes"][key] = {
-        "invoke": sorted(result), "seconds": time.perf_counter() - start, "status": scene.iblbake.last_status,
-        "error": scene.iblbake.last_error, "gaps": dict(PULSE.gaps), "own": dict(PULSE.own), "cpu": dict(PULSE.cpu),
-        "code": dict(PULSE.code), "ticks": dict(PULSE.ticks),
+        "invoke": sorted(result), "asked": asked, "seconds": time.perf_counter() - start,
+        "status": scene.iblbake.last_status, "error": scene.iblbake.last_error, "gaps": dict(PULSE.gaps),
+        "own": dict(PULSE.own), "cpu": dict(PULSE.cpu), "code": dict(PULSE.code), "ticks": dict(PULSE.ticks),
+        "all_gaps": list(PULSE.all), "trace": [(t - start, s, f) for t, s, f in PULSE.trace],
         "progress": [f for _, _, f in PULSE.trace], "stages": [s for _, s, _ in PULSE.trace],
         "out": scene.iblbake.last_output}
     PULSE.reset("idle")
 
 
-def redraw_baseline(seconds=3.0):
-    """No bake: the Properties editor redrawn every 50 ms as during a bake,
-    to tell what drawing alone costs here (a software renderer on Xvfb)."""
-    PULSE.reset("redraw only")
+def idle_window(seconds=4.0):
+    """No bake: the UI doing what it does while a bake runs - World
+    Properties and the status bar redrawn as often as the bar is at most
+    (operators.REDRAW_INTERVAL) - so that what a bake adds is what its work
+    takes from the UI; the gaps kept for the baseline. (Each redraw draws
+    the whole window: a software renderer on Xvfb feels it.)"""
+    PULSE.reset("idle")
+    interval = addon("operators").REDRAW_INTERVAL
     end = time.perf_counter() + seconds
     while time.perf_counter() < end:
-        for area in bpy.context.window_manager.windows[0].screen.areas:
-            area.tag_redraw()
-        yield 0.05
-    RESULT["baseline"] = {"gaps": dict(PULSE.gaps), "own": dict(PULSE.own), "cpu": dict(PULSE.cpu)}
+        addon("state").redraw(bpy.context, only_world=True)
+        yield interval
+    with open("/proc/loadavg") as f:
+        load = f.read().split()[0]
+    RESULT["idle"].append({"gaps": list(PULSE.all), "own": max(PULSE.own.values() or [0.0]),
+                           "cpu": max(PULSE.cpu.values() or [0.0]), "load": load})
     PULSE.reset("idle")
 
 
@@ -246,10 +319,9 @@ def cancel_at(key, stage_prefix, how, folder, face_size=None):
     state = addon("state")
     before = snapshot(folder)
     props = bpy.context.scene.iblbake
-    opts = props if props.use_scene_options else bpy.context.preferences.addons[ADDON[0]].preferences
-    old_face = opts.face_size
+    old_face = props.face_size
     if face_size:
-        opts.face_size = face_size
+        props.face_size = face_size
     props.force = True
     PULSE.reset(key)
     click_bake()
@@ -259,14 +331,12 @@ def cancel_at(key, stage_prefix, how, folder, face_size=None):
         if state.RUN.stage.startswith(stage_prefix) and not seen:
             seen = True
             if how == "esc":
-                press_escape()
+                press("Escape")
             else:
-                win, area, region = properties_area()
-                with bpy.context.temp_override(window=win, area=area, region=region):
-                    bpy.ops.iblbake.cancel()
+                in_panel(lambda: bpy.ops.iblbake.cancel())
         yield 0.01
     props.force = False
-    opts.face_size = old_face
+    props.face_size = old_face
     RESULT["cancels"][key] = {"stage_seen": seen, "how": how, "status": bpy.context.scene.iblbake.last_status,
                               "intact": snapshot(folder) == before, "gaps": dict(PULSE.gaps),
                               "own": dict(PULSE.own), "cpu": dict(PULSE.cpu), "code": dict(PULSE.code),
@@ -274,100 +344,203 @@ def cancel_at(key, stage_prefix, how, folder, face_size=None):
     PULSE.reset("idle")
 
 
-def scenario():
-    install()
-    RESULT["module"] = addon("core.native").load().__file__
-    prefs = bpy.context.preferences.addons[ADDON[0]].preferences
-    prefs.default_output_dir = os.path.join(WORK, "out", "{world}")
-    operators, panel = addon("operators"), addon("panel")
-    for cls, names in ((operators.IBLBAKE_OT_bake, ("invoke", "modal")), (panel.IBLBAKE_PT_world, ("draw",))):
-        for name in names:
-            timed(cls, name)
-    bpy.app.timers.register(PULSE, first_interval=0.01)
-    # Only the World's Surface panel and ours, so the screenshots show ours whole.
+def keep_only_our_world_panels():
+    """Only the World's context panel and ours, so the screenshots show ours."""
     for cls in list(bpy.types.Panel.__subclasses__()):
-        if (getattr(cls, "bl_context", "") == "world" and cls.__name__ != "IBLBAKE_PT_world"
-                and not cls.__name__.endswith("_PT_surface") and not cls.__name__.endswith("_PT_context_world")):
+        if (getattr(cls, "bl_context", "") == "world" and not cls.__name__.startswith("IBLBAKE_PT_world")
+                and not cls.__name__.endswith("_PT_context_world")):
             try:
                 bpy.utils.unregister_class(cls)
             except RuntimeError:
                 pass
-    # The big 3D View becomes a Properties editor showing World Properties.
-    win = bpy.context.window_manager.windows[0]
-    view = max((a for a in win.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
-    view.type = "PROPERTIES"
-    yield 0.5
-    win, area, region = properties_area()
-    area.spaces.active.context = "WORLD"
-    scene = bpy.context.scene
 
-    # An 8K image world.
+
+def show_world_properties():
+    _win, area, _region = properties_area()
+    area.spaces.active.context = "WORLD"
+
+
+def scenario():
+    install()
+    RESULT["module"] = addon("core.native").load().__file__
+    p = prefs()
+    p.default_output_dir = os.path.join(WORK, "out", "{world}")
+    operators, panel = addon("operators"), addon("panel")
+    for cls, names in ((operators.IBLBAKE_OT_bake, ("invoke", "modal")), (panel.IBLBAKE_PT_world, ("draw",))):
+        for name in names:
+            timed(cls, name)
+    bpy.app.timers.register(PULSE, first_interval=0.01, persistent=True)
+    keep_only_our_world_panels()
+    yield 0.5
+    win, area, _region = properties_area()
+    RESULT["properties_width"] = [area.width, area.height]
+    show_world_properties()
+    scene = bpy.context.scene
+    scene.world = image_world(FOREST, "forest")
+    yield 1.0
+    # The scene's settings started from the preferences' defaults (this file had none) once it
+    # changed or the panel showed it.
+    RESULT["checks"]["initialised"] = [scene.iblbake.options_initialised, scene.iblbake.output_dir]
+
+    # 9. An unsaved file with a // folder: Bake IBL greyed out, the reason below the field.
+    scene.iblbake.output_dir = "//ibl/{world}"
+    yield 1.0
+    RESULT["checks"]["unsaved"] = {"poll": in_panel(lambda: bpy.ops.iblbake.bake.poll()),
+                                   "why": panel._plan(bpy.context, scene).folder_error}
+    yield from shot("unsaved_relative_folder", scroll="top")
+    scene.iblbake.output_dir = p.default_output_dir
+
+    # The idle baseline's first window, then the 8K image world (the stall figures).
     scene.world = image_world(BIG_EXR)
     yield 1.0
-    screenshot("image_before")
-    yield 1.0
-    yield from redraw_baseline()
+    yield from shot("image_before", scroll="top")
+    yield from idle_window()
     yield from bake_and_watch("image")
     yield 1.0
-    # Scroll the panel (the mouse wheel, through the X server) to show the files and the preview.
-    top = win.height - (area.y + area.height)
-    subprocess.Popen(["xdotool", "mousemove", str(area.x + area.width // 2), str(top + area.height // 2),
-                      "click", "--repeat", "25", "5"])
-    yield 2.0
-    screenshot("image_after")
-    yield 1.0
+    yield from shot("image_after", scroll="top")
+    yield from shot("image_files", scroll=30)
+    yield from idle_window()
     folder = RESULT["bakes"]["image"]["out"]
-    # Open Output Folder with no file manager: the panel says where the files are.
+
+    # Open Output Folder without a file manager: the panel says where the files are, below the bake's result.
     path_env = os.environ.get("PATH", "")
     os.environ["PATH"] = ""
     try:
-        with bpy.context.temp_override(window=win, area=area, region=region):
-            bpy.ops.iblbake.open_output()
+        in_panel(lambda: bpy.ops.iblbake.open_output())
     finally:
         os.environ["PATH"] = path_env
-    RESULT["open_folder"] = {"status": scene.iblbake.last_status, "clipboard": bpy.context.window_manager.clipboard}
+    RESULT["open_folder"] = dict(status_lines(), clipboard=bpy.context.window_manager.clipboard)
     yield 0.5
-    # Open Preview: no Image Editor on this screen, so a new window shows it.
-    with bpy.context.temp_override(window=win, area=area, region=region):
-        bpy.ops.iblbake.open_preview()
-    yield 2.0
-    editors = [(a.spaces.active.image.name if a.spaces.active.image else None)
-               for w in bpy.context.window_manager.windows for a in w.screen.areas if a.type == "IMAGE_EDITOR"]
-    RESULT["open_preview"] = {"windows": len(bpy.context.window_manager.windows), "image_editors": editors}
-    screenshot("preview_window", whole=True)
-    yield 1.5
-    for extra in list(bpy.context.window_manager.windows)[1:]:  # back to one window: Esc goes to the first
-        with bpy.context.temp_override(window=extra):
-            bpy.ops.wm.window_close()
-    yield 0.5
-    yield from cancel_at("image_read_esc", "Reading the world image", "esc", folder)
+    yield from shot("no_file_manager", scroll="top")
+
+    # Cancels at every stage of the 8K world (Esc or Cancel): the earlier bake stays.
+    yield from cancel_at("image_read_esc", "Reading the image", "esc", folder)
     yield from cancel_at("image_check_button", "Checking for changes", "button", folder)
     yield from cancel_at("image_specular_esc", "Specular levels", "esc", folder, face_size=1024)
     yield from cancel_at("image_specular_button", "Specular levels", "button", folder)
 
-    # "Bake For: This Scene's Materials": the panel says what the default cube leaves out.
-    scene.iblbake.auto_skip = True
-    yield 1.0
-    RESULT["scene_only_lines"] = addon("panel")._plan_lines(bpy.context, scene)[0]
-    subprocess.Popen(["xdotool", "mousemove", str(area.x + area.width // 2), str(top + area.height // 2),
-                      "click", "--repeat", "25", "4"])  # back to the top
-    yield 2.0
-    screenshot("bake_for_scene")
-    yield 1.0
-    scene.iblbake.auto_skip = False
-
-    # A Sky Texture world: Cycles renders it in a child Blender.
+    # A Sky Texture world: Cycles renders it in a child Blender (the stall figures).
     scene.world = sky_world()
-    scene.iblbake.use_scene_options = True
     scene.iblbake.render_width = SKY_WIDTH
     yield 1.0
     yield from bake_and_watch("sky")
     yield 1.0
-    screenshot("sky_after")
+    yield from shot("sky_after", scroll="top")
+    yield from idle_window()
     folder = RESULT["bakes"]["sky"]["out"]
-    yield from cancel_at("sky_render_esc", "Rendering the world", "esc", folder)
-    yield from cancel_at("sky_render_button", "Rendering the world", "button", folder)
+    yield from cancel_at("sky_render_esc", "Rendering with Cycles", "esc", folder)
+    yield from cancel_at("sky_render_button", "Rendering with Cycles", "button", folder)
     yield from cancel_at("sky_bake_button", "Specular levels", "button", folder, face_size=1024)
+    yield from idle_window()
+
+    # 1-3. Every roughness with three.js and Khronos, then This Scene's Materials into the same
+    # folder: Blender's dialog says what would go; Esc keeps it all, Return bakes.
+    scene.world = image_world(FOREST, "forest")
+    scene.iblbake.face_size = 256
+    scene.iblbake.presets = {"three", "khronos"}  # the World panel's toggles: the scene's, not the preferences'
+    RESULT["checks"]["prefs_presets"] = sorted(p.presets)
+    yield 1.0
+    yield from bake_and_watch("export", shot=False)
+    folder = RESULT["bakes"]["export"]["out"]
+    RESULT["checks"]["export"] = {"status": status_lines(), "du": du(folder),
+                                  "files": panel._folder_state(folder)[1:],
+                                  "grouped": panel.describe.grouped_files(panel._folder_state(folder)[1])}
+    yield from shot("export_files", scroll=30)
+    export_files = snapshot(folder)
+    scene.iblbake.presets = set()
+    scene.iblbake.auto_skip = True  # "Bake For: This Scene's Materials": the default cube reads level 4 of 9
+    yield 1.0
+    RESULT["scene_only_lines"] = panel._plan(bpy.context, scene).lines
+    yield from shot("bake_for_scene", scroll=6)
+    yield from bake_and_watch("scene_only_kept", shot=False, confirm="Escape")
+    RESULT["checks"]["kept"] = {"intact": snapshot(folder) == export_files}
+    yield from bake_and_watch("scene_only", shot=False, confirm="Return")
+    RESULT["checks"]["scene_only"] = {"files": sorted(snapshot(folder)), "status": status_lines()}
+    # The world's image changed (forest -> city) in the same world: the dialog names the other source.
+    scene.world.node_tree.nodes["Environment Texture"].image = bpy.data.images.load(CITY, check_existing=False)
+    yield 1.0
+    RESULT["checks"]["world_changed"] = status_lines()
+    yield from shot("world_changed", scroll="top")
+    yield from bake_and_watch("other_source", shot=False, confirm="Return")
+
+    # Issue 27's sun in this layout: Sun: Split (its row in the Bake For box) on sunset.exr, the
+    # sentence and Add Sun Lamp below the Last bake line; Sun: Off again asks before the sun's files go.
+    forest = scene.world
+    scene.world = image_world(SUNSET, "sunset")
+    scene.iblbake.sun = "split"
+    yield 1.0
+    yield from shot("sun_toggle", scroll=6)
+    yield from bake_and_watch("sun_split", shot=False)
+    yield 1.0
+    sun_folder = RESULT["bakes"]["sun_split"]["out"]
+    old = panel._folder_state(sun_folder)[0]
+    RESULT["checks"]["sun"] = dict(status_lines(), sentence=panel.describe.sun_sentence(old.manifest.get("sun")),
+                                   files=sorted(snapshot(sun_folder)),
+                                   poll=in_panel(lambda: bpy.ops.iblbake.add_sun_lamp.poll()))
+    yield from shot("sun_split", scroll="top")
+    in_panel(lambda: bpy.ops.iblbake.add_sun_lamp())
+    RESULT["checks"]["sun"]["lamp"] = [o.data.type for o in scene.objects if o.name == "IBL Sun"]
+    scene.iblbake.sun = "off"
+    yield 1.0
+    yield from bake_and_watch("sun_off", shot=False, confirm="Return")
+    RESULT["checks"]["sun_off"] = {"files": sorted(snapshot(sun_folder)), "status": status_lines()}
+    scene.world = forest
+    yield 1.0
+
+    # 4. Open Preview: no Image Editor open, the panel shows the sheet large; with one (the
+    # Timeline made an Image Editor), every click reuses it; saving keeps the sheet out of the file.
+    windows = len(bpy.context.window_manager.windows)
+    in_panel(lambda: bpy.ops.iblbake.open_preview())
+    yield 1.0
+    yield from shot("preview_in_panel", scroll=40)
+    timeline = next(a for a in win.screen.areas if a.type in ("DOPESHEET_EDITOR", "TIMELINE"))
+    timeline.type = "IMAGE_EDITOR"
+    yield 0.5
+    for _ in range(3):
+        in_panel(lambda: bpy.ops.iblbake.open_preview())
+        yield 0.5
+    editors = [(a.spaces.active.image.name if a.spaces.active.image else None)
+               for w in bpy.context.window_manager.windows for a in w.screen.areas if a.type == "IMAGE_EDITOR"]
+    screenshot("preview_editor", whole=True)
+    yield 1.0
+    blend = os.path.join(WORK, "scene.blend")
+    in_panel(lambda: bpy.ops.wm.save_as_mainfile(filepath=blend))
+    yield 1.0
+    RESULT["open_preview"] = {"windows_before": windows, "windows": len(bpy.context.window_manager.windows),
+                              "image_editors": editors,
+                              "editor_after_save": [(a.spaces.active.image.name if a.spaces.active.image else None)
+                                                    for a in win.screen.areas if a.type == "IMAGE_EDITOR"]}
+
+    # 9. Reopened: the panel reads the folder's manifest.
+    in_panel(lambda: bpy.ops.wm.open_mainfile(filepath=blend))
+    yield 2.0
+    keep_only_our_world_panels()
+    show_world_properties()
+    scene = bpy.context.scene
+    yield 1.0
+    RESULT["checks"]["reopened"] = dict(status_lines(), images=[i.name for i in bpy.data.images],
+                                        settings=[scene.iblbake.face_size, sorted(scene.iblbake.presets)])
+    yield from shot("reopened", scroll="top")
+    yield from shot("options", scroll=18)
+
+    # 8. The preferences: the defaults for new files, headings that do not repeat a button.
+    bpy.context.preferences.active_section = "ADDONS"
+    bpy.context.window_manager.addon_search = "iblbake"
+    in_panel(lambda: bpy.ops.screen.userpref_show())
+    yield 1.0
+    for mod in addon_utils.modules():  # the add-on's entry expanded, as its arrow does
+        if mod.__name__ == ADDON[0]:
+            addon_utils.module_bl_info(mod)["show_expanded"] = True
+    for extra in bpy.context.window_manager.windows:
+        for a in extra.screen.areas:
+            a.tag_redraw()
+    yield 1.5
+    screenshot("preferences", whole=True)
+    yield 1.0
+    for extra in list(bpy.context.window_manager.windows)[1:]:  # back to one window: Esc goes to the first
+        with bpy.context.temp_override(window=extra):
+            bpy.ops.wm.window_close()
+    yield 0.5
 
     # No world: refused with a message, nothing written.
     scene.world = None
@@ -379,8 +552,7 @@ def scenario():
     yield 0.5
     RESULT["no_world"] = {"status": scene.iblbake.last_status,
                           "written": os.path.isdir(os.path.join(WORK, "out", "no_world"))}
-    screenshot("no_world")
-    yield 1.0
+    yield from shot("no_world", scroll="top")
 
 
 def driver(gen=scenario()):
@@ -397,4 +569,4 @@ def driver(gen=scenario()):
     return None
 
 
-bpy.app.timers.register(driver, first_interval=1.0)
+bpy.app.timers.register(driver, first_interval=1.0, persistent=True)

@@ -82,20 +82,81 @@ def addon_zip():
     return os.path.join(BUILD, zips[-1])
 
 
+def percentile(values, q):
+    """The q-th percentile (linear interpolation, as numpy's default)."""
+    v = sorted(values)
+    if not v:
+        return 0.0
+    k = (len(v) - 1) * q / 100.0
+    lo = int(k)
+    hi = min(lo + 1, len(v) - 1)
+    return v[lo] + (v[hi] - v[lo]) * (k - lo)
+
+
+def median(values):
+    return percentile(values, 50)
+
+
+# The issue's bounds: during a bake, the longest gap of the 10 ms timer at
+# most the idle windows' longest + 100 ms, its 99th percentile at most the
+# idle windows' (median) + 30 ms.
+MAX_MARGIN, P99_MARGIN = 0.100, 0.030
+# A host too loaded to judge at that precision: the idle windows disagree
+# among themselves by more than the margins (their 99th percentiles, or
+# their longest gaps), so a bake's difference could be the load's.
+
+
+def stalls(res):
+    """The stall figures: the idle windows' and each bake's longest gap and 99th percentile."""
+    windows = [w["gaps"] for w in res["idle"] if w["gaps"]]
+    maxima = [max(g) for g in windows]
+    idle = {"max": max(maxima), "p99": median([percentile(g, 99) for g in windows]),
+            "window_max": maxima, "window_p99": [percentile(g, 99) for g in windows]}
+    bakes = {name: {"max": max(res["bakes"][name]["all_gaps"]), "p99": percentile(res["bakes"][name]["all_gaps"], 99),
+                    "seconds": res["bakes"][name]["seconds"]} for name in ("image", "sky")}
+    p99s = idle["window_p99"]
+    loaded = max(p99s) - min(p99s) > P99_MARGIN or max(maxima) - min(maxima) > MAX_MARGIN
+    return idle, bakes, loaded
+
+
+def progress_intervals(trace, stage):
+    """The longest time the bar stood still while `stage` was shown: between
+    two changes of its fraction, and from the last change to the stage's end."""
+    times = [(t, f) for t, s, f in trace if s == stage]
+    if not times:
+        return None
+    changes = [t for (t, f), (_, g) in zip(times[1:], times) if f != g]
+    marks = changes or [times[0][0]]  # entering the stage is a change too (its name)
+    end = next((t for t, s, _ in trace if t > times[-1][0] and s != stage), times[-1][0])
+    return max(b - a for a, b in zip(marks, marks[1:] + [end])) if marks else None
+
+
 def report(res):
     """The stalls, per bake and stage, for the test log."""
-    lines = ["longest gap between two runs of a 10 ms timer (s): wall / without waiting for a CPU / "
-             "main-thread CPU; and the longest call of our main-thread code"]
-    base = res.get("baseline", {})
-    for key, label in (("gaps", "wall"), ("own", "own"), ("cpu", "cpu")):
-        if base.get(key):
-            lines.append("  redraws alone, no bake: %s %.3f" % (label, max(base[key].values())))
+    idle, bakes, loaded = stalls(res)
+    lines = ["stalls: gaps between two runs of a 10 ms timer (s), in this Blender run (load %s)" % res.get("load"),
+             "  idle windows (World Properties redrawn as often as while baking; load %s): longest %s, p99 %s -> "
+             "idle max %.3f, idle p99 %.3f" % (" ".join(w.get("load", "?") for w in res["idle"]),
+                 " ".join("%.3f" % v for v in idle["window_max"]), " ".join("%.3f" % v for v in idle["window_p99"]),
+                 idle["max"], idle["p99"])]
+    for name, b in bakes.items():
+        lines.append("  %-6s bake: longest %.3f (bound %.3f), p99 %.3f (bound %.3f), %.1f s" % (
+            name, b["max"], idle["max"] + MAX_MARGIN, b["p99"], idle["p99"] + P99_MARGIN, b["seconds"]))
+    if loaded:
+        lines.append("  THE HOST IS TOO LOADED TO JUDGE THE UI'S SMOOTHNESS: its idle windows disagree by more than "
+                     "the margins (p99 %s, longest %s): the bounds are not asserted in this run" % (
+                         " ".join("%.3f" % v for v in idle["window_p99"]),
+                         " ".join("%.3f" % v for v in idle["window_max"])))
+    lines.append("  worst stage per bake (wall / without waiting for a CPU / main-thread CPU; our code's longest call):")
     for name, b in list(res["bakes"].items()) + list(res["cancels"].items()):
         stages = sorted(b["gaps"], key=lambda s: -b["gaps"][s])
         worst = stages[0] if stages else "-"
-        lines.append("  %-22s worst stage %-32s wall %.3f  own %.3f  cpu %.3f  | our code: %s" % (
+        lines.append("  %-22s %-24s wall %.3f  own %.3f  cpu %.3f  | our code: %s" % (
             name, worst, b["gaps"].get(worst, 0), b["own"].get(worst, 0), b["cpu"].get(worst, 0),
             ", ".join("%s %.3f" % (k.split(".")[-1], v) for k, v in sorted(b["code"].items()))))
+    for name, stage in (("image", "Reading the image"), ("sky", "Rendering with Cycles")):
+        lines.append("  the bar during %s: stood still at most %.2f s" % (
+            stage, progress_intervals(res["bakes"][name]["trace"], stage) or -1))
     return "\n".join(lines)
 
 
@@ -108,11 +169,15 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
                IBLBAKE_CACHE_DIR=str(tmp_path / "cache"))
     cmd = [BLENDER, "--factory-startup", "-p", "0", "0", str(SIZE[0]), str(SIZE[1]), "--python",
            os.path.join(HERE, "gui_session.py"), "--", addon_zip(), str(work), big_exr()]
+    with open("/proc/loadavg") as f:
+        load = f.read().split()[0]
     p = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=1500)
     result = work / "result.json"
     assert result.is_file(), "Blender exited %s without a result:\n%s\n%s" % (
         p.returncode, p.stdout[-4000:], p.stderr[-2000:])
     res = json.loads(result.read_text())
+    with open("/proc/loadavg") as f:
+        res["load"] = "%s before, %s after" % (load, f.read().split()[0])
     keep = os.path.join(BUILD, "tests", "gui")
     os.makedirs(keep, exist_ok=True)
     for old in os.listdir(keep):  # an earlier run's screenshots never pass for this run's
@@ -123,21 +188,24 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
             shutil.copy(shot, keep)
     with open(os.path.join(keep, "result.json"), "w") as f:
         json.dump(res, f, indent=1)
-    print(report(res))
-    print("screenshots: %s" % keep)
-    sys.stdout.flush()
     assert res["errors"] == [], res["errors"]
+    print(report(res))
+    print("screenshots: %s (the Properties editor at Blender's default width, %d x %d)" % (
+        keep, *res["properties_width"]))
+    sys.stdout.flush()
     # The module came from the installed zip, never the build tree: dist's
     # wheel in the extensions' site-packages, else the zip's own folder.
     print("module: %s (installed from %s)" % (res["module"], cmd[-3]))
     assert res["module"].startswith(str(tmp_path)), res["module"]
     if cmd[-3] == dist_zip():
         assert "/extensions/.local/lib/python" in res["module"] and "site-packages" in res["module"], res["module"]
+    # The screenshots are of the factory layout's Properties editor: Blender's default width.
+    assert res["properties_width"][0] < 300, res["properties_width"]
 
     # Both bakes ran as modal jobs and finished.
-    for name, prepare in (("image", "Reading the world image"), ("sky", "Rendering the world with Cycles")):
+    for name, prepare in (("image", "Reading the image"), ("sky", "Rendering with Cycles")):
         b = res["bakes"][name]
-        assert b["invoke"] == ["RUNNING_MODAL"], b
+        assert b["invoke"] == ["RUNNING_MODAL"] and not b["asked"], b["invoke"]
         assert b["status"].startswith("Baked in"), b
         # The event loop turned while the world was read or rendered.
         assert b["ticks"].get(prepare, 0) >= 3, (name, b["ticks"])
@@ -148,6 +216,17 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
     assert res["bakes"]["sky"]["ticks"].get("Specular levels", 0) + res["bakes"]["sky"]["ticks"].get(
         "Writing files", 0) >= 1
 
+    # 5. Smooth while baking: against the idle windows of this run (report() printed the figures).
+    idle, bakes, loaded = stalls(res)
+    if not loaded:
+        for name, b in bakes.items():
+            assert b["max"] <= idle["max"] + MAX_MARGIN, (name, b, idle)
+            assert b["p99"] <= idle["p99"] + P99_MARGIN, (name, b, idle)
+        # 6. The bar moves at least once a second while the file is read and while Cycles samples.
+        for name, stage in (("image", "Reading the image"), ("sky", "Rendering with Cycles")):
+            still = progress_intervals(res["bakes"][name]["trace"], stage)
+            assert still is not None and still <= 1.0, (name, stage, still)
+
     # Esc or Cancel at every stage: stopped, and the earlier bake untouched.
     assert len(res["cancels"]) >= 7
     for name, c in res["cancels"].items():
@@ -155,11 +234,51 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
         assert c["status"].startswith("Cancelled"), (name, c)
         assert c["intact"], (name, c)
 
-    # Open Output Folder without a file manager says where the files are; Open Preview shows the sheet.
+    checks = res["checks"]
+    # 2. The file's settings: started from the preferences; the World panel's toggles wrote the scene only.
+    assert checks["initialised"] == [True, os.path.join(str(work), "out", "{world}")], checks["initialised"]
+    assert checks["prefs_presets"] == [], checks["prefs_presets"]
+    # 1. Before a bake removes what the folder holds, Blender's dialog asks: Esc keeps everything,
+    # Return bakes; in the buttons' words (three.js, Khronos), no hash, no "levels 4-4".
+    export = checks["export"]
+    assert export["status"]["status"].endswith(": irradiance, 9 specular levels, BRDF LUT, three.js, Khronos")
+    assert res["bakes"]["scene_only_kept"]["asked"] and checks["kept"]["intact"]
+    assert res["bakes"]["scene_only"]["asked"] and res["bakes"]["scene_only"]["status"].startswith("Baked in")
+    assert [f for f in checks["scene_only"]["files"] if f.startswith("specular")] == ["specular_4.exr"]
+    assert not any(f.startswith(("three/", "khronos/")) for f in checks["scene_only"]["files"])
+    assert "specular level 4" in checks["scene_only"]["status"]["last_bake"], checks["scene_only"]
+    assert checks["world_changed"]["last_bake"].endswith("; the world changed since"), checks["world_changed"]
+    assert res["bakes"]["other_source"]["asked"] and res["bakes"]["other_source"]["status"].startswith("Baked in")
+    # Issue 27's sun: the split's files, its sentence and Add Sun Lamp in the panel; a bake with
+    # Sun: Off asks before it removes them.
+    sun = checks["sun"]
+    assert res["bakes"]["sun_split"]["status"].startswith("Baked in") and not res["bakes"]["sun_split"]["asked"]
+    assert {"sun.json", "sun.gltf"} <= set(sun["files"]) and sun["last_bake"].endswith(", Sun: Split; up to date"), sun
+    assert sun["sentence"].startswith("Sun at ") and sun["poll"] is True and sun["lamp"] == ["SUN"], sun
+    assert res["bakes"]["sun_off"]["asked"] and res["bakes"]["sun_off"]["status"].startswith("Baked in")
+    assert not {"sun.json", "sun.gltf"} & set(checks["sun_off"]["files"]), checks["sun_off"]
+    # 3. The file list counts the preset folders: its total is the folder's.
+    files, total = export["files"]
+    assert total == export["du"] and any(name.startswith("khronos/") for name, _ in files)
+    assert ["khronos/ (3 files)", "three/ (1 file)"] == [n for n, _ in export["grouped"] if n.endswith("file)") or
+                                                         n.endswith("files)")]
+    # 4. Open Preview opens no window; with an Image Editor open every click reuses it; the
+    # sheet is not saved with the file, and is back in its editor after the save.
+    op = res["open_preview"]
+    assert op["windows"] == op["windows_before"] == 1, op
+    assert op["image_editors"] == ["iblbake preview"] and op["editor_after_save"] == ["iblbake preview"], op
+    assert "iblbake preview" not in checks["reopened"]["images"], checks["reopened"]
+    # 9. Reopened: the panel reads the folder's manifest; the settings are the file's.
+    assert checks["reopened"]["last_bake"].startswith("Last bake: ") and checks["reopened"]["last_bake"].endswith(
+        "; up to date"), checks["reopened"]
+    assert checks["reopened"]["settings"] == [256, []], checks["reopened"]
+    assert checks["unsaved"]["poll"] is False and checks["unsaved"]["why"].startswith("Save the file first")
+    # 8. Wording: the no-file-manager note is its own line, the bake's result stays.
     folder = res["bakes"]["image"]["out"]
-    assert "No file manager" in res["open_folder"]["status"] and folder in res["open_folder"]["status"], res
-    assert res["open_folder"]["clipboard"] == folder
-    assert "iblbake preview" in res["open_preview"]["image_editors"], res["open_preview"]
+    assert res["open_folder"]["note"].startswith("No file manager") and folder in res["open_folder"]["note"]
+    assert res["open_folder"]["status"].startswith("Baked in") and res["open_folder"]["clipboard"] == folder
+    for b in res["bakes"].values():
+        assert "hash" not in b["status"] and "-4 " not in b["status"], b["status"]
 
     # This scene's materials: the default cube's Principled BSDF at roughness 0.5 reads level 4 of 9.
     assert res["scene_only_lines"] == [
@@ -168,6 +287,8 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
     # No world: refused in words, nothing written.
     assert "no world" in res["no_world"]["status"] and not res["no_world"]["written"], res["no_world"]
     names = {os.path.basename(shot) for shot in res["screenshots"]}
-    assert {"image_during.png", "sky_during.png"} <= names, sorted(names)
+    assert {"image_during.png", "sky_during.png", "scene_only_dialog.png", "reopened.png", "preferences.png",
+            "export_files.png", "unsaved_relative_folder.png", "sun_toggle.png", "sun_split.png",
+            "sun_off_dialog.png"} <= names, sorted(names)
     for shot in res["screenshots"]:
         assert os.path.getsize(shot) > 10000, shot

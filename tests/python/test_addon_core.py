@@ -14,7 +14,7 @@ from iblbake.core import needs as N  # noqa: E402
 from iblbake.core import pipeline  # noqa: E402
 from iblbake.core.job import BakeJob  # noqa: E402
 from iblbake.core.settings import BakeSettings  # noqa: E402
-from iblbake.core.world import COLOR, IMAGE, Mapping, WorldSource, euler_xyz_matrix, prepare_pixels, srgb_to_linear  # noqa: E402,E501
+from iblbake.core.world import COLOR, IMAGE, RENDER, Mapping, WorldSource, euler_xyz_matrix, prepare_pixels, srgb_to_linear  # noqa: E402,E501
 
 
 def test_levels_cover_the_roughness_an_engine_reads():
@@ -202,7 +202,7 @@ def test_panel_says_in_words_what_is_skipped_and_why():
     assert D.needs_sentences(cube, 9, scene_only=False) == [
         "Everything: irradiance, all 9 specular levels, the BRDF LUT"]
     # Engine presets need every level, whatever the scene reads.
-    assert D.needs_sentences(cube, 9, True, ("three",)) == ["Everything: engine presets (three) need every level"]
+    assert D.needs_sentences(cube, 9, True, ("three",)) == ["Everything: the engines ticked (three.js) need every level"]
     metal = N.needs_from_lobes([N.Lobe("glossy", (0.2, 0.6), "m")], 9, 1)
     assert D.needs_sentences(metal, 9, True) == [
         "No irradiance: no visible material is diffuse",
@@ -225,7 +225,7 @@ def test_bake_files_are_listed_with_sizes_and_levels_grouped(tmp_path):
         (tmp_path / name).write_bytes(b"x" * size)
     files, total = D.bake_files(str(tmp_path))
     assert total == 280 and files[0] == ("manifest.json", 10) and files[1] == ("preview.png", 20)
-    assert D.grouped_files(files)[-1] == ("specular_0-2.exr (3 files)", 150)
+    assert D.grouped_files(files)[-1] == ("specular_0-2.exr", 150)
     assert D.human_size(512) == "512 B" and D.human_size(3 * 1024 * 1024) == "3.0 MB"
     assert D.bake_files(str(tmp_path / "missing")) == ([], 0)
 
@@ -284,3 +284,90 @@ def test_thumbnail_is_small_srgb_and_bottom_up():
     np.testing.assert_allclose(t[-1, :, :3], 0.5, atol=2e-3)  # the top row is last (bottom-up)
     np.testing.assert_allclose(t[0, :, :3], 0.0)
     assert (t[..., 3] == 1).all()
+
+
+# --- what a bake's folder holds and what a new bake would remove (core/folder.py, issue 26) ---
+from iblbake.core import folder as F  # noqa: E402
+
+
+def test_a_bake_says_what_it_would_remove_from_the_folder(tmp_path):
+    """Every roughness with two engines, then This Scene's Materials for a
+    roughness-0.5 cube: levels 0-3 and 5-8 and both engine folders would
+    go (with their sizes); the same bake again removes nothing; another
+    world's bake is named as such."""
+    src = WorldSource(IMAGE, world="World", image_name="forest.exr", image_path="/hdri/forest.exr")
+    full = BakeSettings(out_dir=str(tmp_path / "out"), face_size=256, irradiance_size=4, lut_size=8,
+                        lut_cache_dir=str(tmp_path / "cache"), presets=["three", "khronos"], auto_skip=False)
+    pipeline.bake(src, sky(64, 128), full)
+    old = F.read_folder(str(tmp_path / "out"))
+    assert old.outputs == F.Outputs(True, tuple(range(9)), True, ("khronos", "three"), True, ("exr",))
+    assert old.source_words == "forest.exr" and old.total_bytes > 0
+    cube = N.needs_from_lobes(N.principled_lobes("Material", (0.5, 0.5), (0, 0), (0.5, 0.5)), 9, 1)
+    scene_only = BakeSettings(**dict(vars(full), presets=[], auto_skip=True))
+    planned = F.planned_outputs(pipeline.native_options(scene_only, cube), 9)
+    assert planned.levels == (4,) and planned.irradiance and not planned.presets
+    gone = F.losses(old, planned, src)
+    assert [g.split(" (")[0] for g in gone] == ["specular levels 0-3 and 5-8", "the three.js and Khronos folders"]
+    assert all(g.endswith("B)") for g in gone)  # each with its size
+    assert F.losses(old, old.outputs, src) == []
+    sky_world = WorldSource(RENDER, "a Sky Texture", world="Sky")
+    assert F.losses(old, old.outputs, sky_world)[0].startswith("the bake of forest.exr (")
+    png_only = F.Outputs(True, tuple(range(9)), True, ("khronos", "three"), True, ("png",))
+    assert [g.split(" (")[0] for g in F.losses(old, png_only, src)] == [
+        "9 specular levels as EXR", "the irradiance", "the BRDF LUT"]
+
+
+def test_the_panel_says_when_and_what_was_baked_and_whether_it_is_up_to_date(tmp_path):
+    src = WorldSource(IMAGE, world="World", image_name="forest.exr", image_path="/hdri/forest.exr")
+    settings = small(tmp_path)
+    pipeline.bake(src, sky(), settings, extra={"world_fingerprint": "abc"})
+    old = F.read_folder(settings.out_dir)
+    digest = pipeline.settings_hash(src, settings)
+    assert old.blender["settings_hash"] == digest
+    assert F.freshness(old, "abc", digest) == F.UP_TO_DATE
+    assert F.freshness(old, "abd", digest) == F.WORLD_CHANGED
+    assert F.freshness(old, "abc", pipeline.settings_hash(src, small(tmp_path, lut_model="multiscatter"))) == F.SETTINGS_CHANGED
+    now = old.modified + 60
+    assert F.last_bake_line(old, F.UP_TO_DATE, now) == (
+        "Last bake: %s, forest.exr: irradiance, 4 specular levels, BRDF LUT; up to date" % F.when(old.modified, now))
+    assert F.when(0, 365 * 86400 * 3).endswith("1970")
+    # A bake by the command line (no blender section): when and what, no verdict.
+    cli = tmp_path / "cli"
+    import subprocess
+    exr = str(tmp_path / "sky.exr")
+    ib.write_exr(exr, sky())
+    subprocess.run([os.environ.get("IBLBAKE_CLI", os.path.join(os.path.dirname(__file__), "..", "..", "build",
+                                                                "native", "iblbake")),
+                    "bake", exr, "-o", str(cli), "--face-size", "8", "-q"], check=True,
+                   env=dict(os.environ, IBLBAKE_CACHE_DIR=str(tmp_path / "cache")))
+    by_cli = F.read_folder(str(cli))
+    assert by_cli.source_words == "sky.exr (by the command line)" and F.freshness(by_cli, "abc", digest) == ""
+    assert F.read_folder(str(tmp_path / "nothing")) is None
+
+
+def test_file_lists_count_the_engine_folders(tmp_path):
+    for name, size in (("manifest.json", 10), ("specular_0.exr", 40), ("three/specular.ktx2", 500),
+                       ("khronos/diffuse.ktx2", 300), ("khronos/specular.ktx2", 700)):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_bytes(b"x" * size)
+    files, total = D.bake_files(str(tmp_path))
+    assert total == 1550 and len(files) == 5 and files[0] == ("manifest.json", 10)
+    assert D.grouped_files(files)[-2:] == [("khronos/ (2 files)", 1000), ("three/ (1 file)", 500)]
+    assert D.levels_words([4]) == "specular level 4" and D.levels_words(range(9)) == "9 specular levels"
+    assert D.levels_words([0, 1, 2, 3, 5, 6]) == "specular levels 0-3 and 5-6"
+
+
+def test_a_bake_without_the_sun_split_says_it_removes_the_suns_files(tmp_path):
+    """Issue 27's sun in issue 26's folder logic: a bake with Sun: Split holds
+    sun.json (and sun.gltf when found); the Last bake line says so, and a bake
+    with Sun: Off would remove them (the panel asks first)."""
+    src = WorldSource(IMAGE, world="World", image_name="sunset.exr", image_path="/hdri/sunset.exr")
+    split = small(tmp_path, sun="split")
+    pipeline.bake(src, sky(), split)
+    old = F.read_folder(split.out_dir)
+    assert old.outputs.sun and "sun.json" in dict(old.files)
+    assert old.outputs.words().endswith(", Sun: Split")
+    off = F.planned_outputs(pipeline.native_options(small(tmp_path), None), 4)
+    assert not off.sun and F.planned_outputs(pipeline.native_options(split, None), 4).sun
+    assert [g.split(" (")[0] for g in F.losses(old, off, src)] == ["the sun's files"]
+    assert F.losses(old, old.outputs, src) == []

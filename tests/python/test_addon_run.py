@@ -12,7 +12,8 @@ import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "addon"))
 import iblbake_core as ib  # noqa: E402
-from iblbake.core.job import BakeRun, Steps  # noqa: E402
+from iblbake.core.job import (READING_BUFFER, READING_FILE, RENDERING, STARTING_RENDER, BakeJob, BakeRun,  # noqa: E402
+                              Steps)
 from iblbake.core.pipeline import BakeReport  # noqa: E402
 from iblbake.core.settings import BakeSettings  # noqa: E402
 from iblbake.core.world import COLOR, IMAGE, RENDER, FileNotAsBlenderShowsIt, NeedsRender, WorldSource  # noqa: E402
@@ -29,6 +30,7 @@ class Render:
 
     def __init__(self, fails):
         self.fraction, self.ended, self.cancelled, self.cleaned, self.fails = 0.0, False, False, False, fails
+        self.sampling = False
 
     def done(self):
         return self.ended
@@ -74,8 +76,10 @@ class Fake:
         self._enter("file_plan")
         return (source.image_path, True) if self.plan else None
 
-    def read_file(self, source, alpha_matters):
+    def read_file(self, source, alpha_matters, progress=None):
         self._enter("read_file")
+        for f in (0.5, 1.0):
+            progress(f)
         if self.not_as_shown:
             raise FileNotAsBlenderShowsIt("the file has an alpha channel")
         return PIXELS
@@ -94,7 +98,7 @@ class Fake:
             self.render.finish()
         return self.render
 
-    def read_render(self, path):
+    def read_render(self, path, progress=None):
         self._enter("read_render")
         assert path == "world.exr"
         return PIXELS
@@ -164,7 +168,7 @@ def test_every_path_bakes_and_says_how_long_each_stage_took(tmp_path, path):
     fractions = [f for _, f in shown]
     assert fractions == sorted(fractions) and fractions[-1] <= 1.0
     if "render_world" in timed:
-        assert baked_source.path == RENDER and "Rendering the world with Cycles" in {stage for stage, _ in shown}
+        assert baked_source.path == RENDER and STARTING_RENDER in {stage for stage, _ in shown}
         assert baked_source.render["notes"] == ["render width raised", "a note from the child"]
     if path == "needs_render":
         assert baked_source.why == "the image has alpha below 1"
@@ -196,7 +200,7 @@ def test_a_failure_at_any_stage_ends_the_run_with_that_error(tmp_path, kind, sta
 
 
 def at_buffer(run, fake):
-    return run.stage == "Reading the image from Blender"
+    return run.stage == READING_BUFFER
 
 
 def rendering(run, fake):
@@ -240,6 +244,29 @@ def test_a_cancel_at_any_stage_stops_it_without_a_bake(tmp_path, stage):
     assert fake.render is None or fake.render.cleaned
 
 
+def test_the_bar_follows_the_files_rows_and_the_renders_samples(tmp_path):
+    """Reading: the share of the file's rows read (iblbake_core.read_image's
+    progress); rendering: Cycles' tiles and samples, once it samples."""
+    run, fake = start(tmp_path, "image", hold="bake")
+    drive(run, until=lambda r: fake.held.is_set())
+    run.poll()  # the fake read reported 0.5, then 1.0 of its rows; the bake has not reported yet
+    assert (run.stage, run.fraction) == (READING_FILE, pytest.approx(0.15))
+    fake.release.set()
+    drive(run)
+
+    run, fake = start(tmp_path, "render", render_runs=True)
+    drive(run, until=lambda r: fake.render is not None)
+    render = fake.render
+    run.poll()
+    assert run.stage == STARTING_RENDER  # Blender starting, Cycles syncing: no sample yet
+    render.sampling, render.fraction = True, 0.5
+    run.poll()
+    assert run.stage == RENDERING and run.fraction == pytest.approx(0.02 + (0.6 - 0.02) * 0.5)
+    render.finish()
+    drive(run)
+    assert run.report.status == "baked"
+
+
 def test_a_bake_done_before_the_cancel_is_reported_as_done(tmp_path):
     run, fake = start(tmp_path, "colour")
     run.poll()  # starts the worker
@@ -260,3 +287,107 @@ def test_a_failure_after_the_cancel_counts_as_the_cancel(tmp_path):
     fake.release.set()
     drive(run)
     assert run.cancelled and run.error is None and fake.calls[-1] == "bake"
+
+
+# --- the real thing: core/worker.py's BakeProcess (the add-on's job) ---------------
+from iblbake.core import worker  # noqa: E402
+from iblbake.core.worker import BakeProcess, Work  # noqa: E402
+
+
+def small_settings(tmp_path, **kw):
+    kw = dict(dict(face_size=16, irradiance_size=4, lut_size=16), **kw)
+    return BakeSettings(out_dir=str(tmp_path / "out"), lut_cache_dir=str(tmp_path / "cache"), **kw)
+
+
+def exr_source(tmp_path, h=64, w=128):
+    rgb = (0.5 + np.random.default_rng(5).random((h, w, 3))).astype(np.float32)
+    path = str(tmp_path / "sky.exr")
+    ib.write_exr(path, rgb)
+    return WorldSource(IMAGE, world="w", image_name="sky.exr", image_path=path, colorspace="Linear"), rgb
+
+
+def follow(job, timeout=120):
+    """The (stage, fraction) pairs job.status() went through, until it is done."""
+    seen = []
+    deadline = time.monotonic() + timeout
+    while not job.done():
+        assert time.monotonic() < deadline, seen
+        s = job.status()
+        if not seen or seen[-1] != s:
+            seen.append(s)
+        time.sleep(0.002)
+    return seen
+
+
+def test_the_bake_process_reads_bakes_and_reports_like_the_thread(tmp_path):
+    """A child Python at nice 19 reads the file (the rows' progress), bakes
+    and hands back the report, its thumbnail and the read's time; the same
+    work on a thread (BakeJob) writes the same files."""
+    source, rgb = exr_source(tmp_path)
+    job = BakeProcess(Work("file", source.image_path, False, timed="read_image_file"), source,
+                      small_settings(tmp_path), None, {"scene": "Scene", "waited": {}}).start()
+    seen = follow(job)
+    assert job.fallback == "" and job.error is None and not job.cancelled, (job.fallback, job.error)
+    report = job.result
+    assert report.status == "baked" and report.thumbnail is not None and report.thumbnail.shape[2] == 4
+    assert [name for name, _ in job.stages] == ["read_image_file"]
+    assert "read_image_file" in report.manifest["blender"]["waited"]
+    assert ("reading", 1.0) in seen and any(stage == "specular" for stage, _ in seen), seen
+    files = sorted(os.listdir(tmp_path / "out"))
+    # The same work on a thread: the same content hash.
+    thread = BakeJob(lambda p: worker.run_work(Work("array", array=rgb), source, small_settings(tmp_path, force=True),
+                                               None, {}, p)[0]).start()
+    assert thread.wait(120) and thread.result.content_hash == report.content_hash
+    assert sorted(os.listdir(tmp_path / "out")) == files
+    job.cleanup()
+    assert not os.path.exists(job.tmp)
+
+
+def test_the_bake_process_runs_at_the_lowest_priority(tmp_path):
+    source, _ = exr_source(tmp_path)
+    job = BakeProcess(Work("file", source.image_path, False), source, small_settings(tmp_path, face_size=128), None,
+                      {}).start()
+    deadline = time.monotonic() + 60
+    while job.proc is None or job.status()[0] == "starting":
+        assert time.monotonic() < deadline and not job.done()
+        time.sleep(0.001)
+    nice = int(open("/proc/%d/stat" % job.proc.pid).read().rsplit(")", 1)[1].split()[16])
+    job.wait(120)
+    assert nice == 19 and job.result is not None
+
+
+@pytest.mark.parametrize("when", ["reading", "specular"])
+def test_a_cancelled_bake_process_leaves_the_folder_as_it_was(tmp_path, when):
+    source, rgb = exr_source(tmp_path, 512, 1024)
+    first = BakeProcess(Work("array", array=rgb * 2), source, small_settings(tmp_path), None, {}).start()
+    assert first.wait(120) and first.result.status == "baked"
+    before = {n: open(tmp_path / "out" / n, "rb").read() for n in os.listdir(tmp_path / "out")}
+    job = BakeProcess(Work("file", source.image_path, False), source, small_settings(tmp_path, face_size=256), None,
+                      {}).start()
+    deadline = time.monotonic() + 120
+    while job.status()[0] != when:
+        assert time.monotonic() < deadline and not job.done(), job.status()
+        time.sleep(0.0005)
+    job.cancel()
+    assert job.wait(60) and job.cancelled and (job.result, job.error) == (None, None)
+    assert {n: open(tmp_path / "out" / n, "rb").read() for n in os.listdir(tmp_path / "out")} == before
+    assert sorted(os.listdir(tmp_path)) == ["cache", "out", "sky.exr"]  # no staging folder left
+    job.cleanup()
+
+
+def test_without_an_interpreter_the_bake_runs_on_a_thread(tmp_path):
+    source, rgb = exr_source(tmp_path)
+    job = BakeProcess(Work("array", array=rgb), source, small_settings(tmp_path), None, {},
+                      python=str(tmp_path / "no-python")).start()
+    assert job.wait(120) and job.result.status == "baked"
+    assert "its own process could not start" in job.fallback
+
+
+def test_errors_cross_the_process_boundary_as_their_own_types(tmp_path):
+    from iblbake.core.pipeline import BakeError
+    source, rgb = exr_source(tmp_path)
+    job = BakeProcess(Work("array", array=rgb), source, small_settings(tmp_path, formats=[]), None, {}).start()
+    assert job.wait(120) and isinstance(job.error, BakeError) and "formats" in str(job.error)
+    alpha = WorldSource(IMAGE, world="w", image_path=source.image_path, colorspace="Filmic Log")
+    job = BakeProcess(Work("file", source.image_path, False), alpha, small_settings(tmp_path), None, {}).start()
+    assert job.wait(120) and isinstance(job.error, FileNotAsBlenderShowsIt)

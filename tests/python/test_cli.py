@@ -50,3 +50,26 @@ def test_failures_are_one_line_and_keep_outputs(tmp_path):
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("iblbake: error:"), r.stderr
     assert not out.exists()
+
+
+@pytest.mark.skipif(not os.path.exists(FOREST), reason="blender-data not installed")
+def test_a_bake_replaces_the_folder_and_says_what_went(tmp_path):
+    """Scripts expect the folder replaced; the CLI says what the earlier bake
+    had that this one has not (issue 26), and nothing when nothing went."""
+    out = str(tmp_path / "o")
+    small = ["--irradiance-size", "8", "--lut-size", "32"]
+    r = run("bake", FOREST, "-o", out, *small, "--face-size", "32", "--preset", "three", "--preset", "khronos")
+    assert r.returncode == 0 and "replaced" not in r.stdout, r.stdout
+    r = run("bake", FOREST, "-o", out, *small, "--face-size", "16")
+    assert r.returncode == 0, r.stderr
+    line = [ln for ln in r.stdout.splitlines() if ln.startswith("replaced the earlier bake in")]
+    assert line == ["replaced the earlier bake in %s: removed specular_5.exr, khronos/ (3 files), three/ (1 file)"
+                    % out], r.stdout
+    assert not os.path.exists(os.path.join(out, "three"))
+    r = run("bake", FOREST, "-o", out, *small, "--face-size", "16")
+    assert "replaced" not in r.stdout, r.stdout
+    other = str(tmp_path / "other.exr")
+    ib.write_exr(other, ib.read_image(FOREST) * 2)
+    r = run("bake", other, "-o", out, *small, "--face-size", "16")
+    assert "replaced the earlier bake in %s: the bake of forest.exr\n" % out in r.stdout, r.stdout
+    assert "replaced" not in run("bake", FOREST, "-o", out, "-q", *small, "--face-size", "32").stdout  # -q: silent

@@ -4,6 +4,7 @@ import json
 import os
 from typing import List, Optional, Tuple
 
+from . import options
 from .needs import Needs
 
 
@@ -23,7 +24,8 @@ def needs_sentences(needs: Needs, mip_count: int, scene_only: bool, presets: Tup
     if not scene_only:
         return ["Everything: irradiance, all %s, the BRDF LUT" % _levels(mip_count)]
     if presets:
-        return ["Everything: engine presets (%s) need every level" % ", ".join(presets)]
+        return ["Everything: the engines ticked (%s) need every level"
+                % ", ".join(options.choice_label("presets", p) for p in presets)]
     if not needs.analysed:
         return ["Everything: no visible object to read materials from"]
     out = []
@@ -80,24 +82,32 @@ def shorten_middle(text: str, max_chars: int) -> str:
 def human_size(n: int) -> str:
     size = float(n)
     for unit in ("B", "KB", "MB", "GB"):
-        if size < 1024 or unit == "GB":
-            return ("%d %s" % (size, unit)) if unit == "B" else ("%.1f %s" % (size, unit))
+        if size < 1024 or unit == "GB":  # three digits at most: "261 KB", "1.9 MB"
+            return ("%d %s" % (size, unit)) if unit == "B" or size >= 100 else ("%.1f %s" % (size, unit))
         size /= 1024.0
     return "%d B" % n
 
 
 def bake_files(out_dir: str) -> Tuple[List[Tuple[str, int]], int]:
-    """([(file name, bytes)], total bytes) of a bake's folder, the manifest first."""
+    """([(path relative to out_dir, bytes)], total bytes) of a bake's folder,
+    the files of its engine presets' folders included ("three/specular.ktx2"),
+    the manifest first."""
+    files = []
     try:
         names = sorted(os.listdir(out_dir))
     except OSError:
         return [], 0
-    names.sort(key=lambda n: (n != "manifest.json", n != "preview.png", n))
-    files = []
     for name in names:
         path = os.path.join(out_dir, name)
         if os.path.isfile(path):
             files.append((name, os.path.getsize(path)))
+        elif os.path.isdir(path) and not name.startswith("."):
+            for root, _dirs, inner in os.walk(path):
+                for f in sorted(inner):
+                    full = os.path.join(root, f)
+                    if os.path.isfile(full):
+                        files.append((os.path.relpath(full, out_dir).replace(os.sep, "/"), os.path.getsize(full)))
+    files.sort(key=lambda e: (e[0] != "manifest.json", e[0] != "preview.png", "/" in e[0], e[0]))
     return files, sum(s for _, s in files)
 
 
@@ -109,11 +119,19 @@ def manifest_of(out_dir: str) -> Optional[dict]:
         return None
 
 
+def files_words(n: int) -> str:
+    return "%d file%s" % (n, "" if n == 1 else "s")
+
+
 def grouped_files(files: List[Tuple[str, int]]) -> List[Tuple[str, int]]:
     """A bake's files for a short list: the specular levels of one extension
-    as one line ("specular_0-8.exr (9 files)"), the others one by one."""
-    out, levels = [], {}
+    as one line ("specular_0-8.exr"), an engine preset's folder as one line
+    ("three/ (2 files)"), the others one by one."""
+    out, levels, folders = [], {}, {}
     for name, size in files:
+        if "/" in name:
+            folders.setdefault(name.split("/", 1)[0], []).append(size)
+            continue
         stem, ext = os.path.splitext(name)
         if stem.startswith("specular_") and stem[9:].isdigit():
             levels.setdefault(ext, []).append((int(stem[9:]), size))
@@ -121,12 +139,41 @@ def grouped_files(files: List[Tuple[str, int]]) -> List[Tuple[str, int]]:
         out.append((name, size))
     for ext, items in sorted(levels.items()):
         items.sort()
-        first, last = items[0][0], items[-1][0]
         if len(items) == 1:
-            out.append(("specular_%d%s" % (first, ext), items[0][1]))
+            out.append(("specular_%d%s" % (items[0][0], ext), items[0][1]))
         else:
-            out.append(("specular_%d-%d%s (%d files)" % (first, last, ext, len(items)), sum(s for _, s in items)))
+            out.append(("specular_%s%s" % (level_ranges([m for m, _ in items], "-", ","), ext),
+                        sum(s for _, s in items)))
+    for folder, sizes in sorted(folders.items()):
+        out.append(("%s/ (%s)" % (folder, files_words(len(sizes))), sum(sizes)))
     return out
+
+
+def level_ranges(levels, dash: str = "-", sep: str = " and ") -> str:
+    """[0, 1, 2, 3, 5, 6] -> "0-3 and 5-6"."""
+    runs = []
+    for m in sorted(set(levels)):
+        if runs and m == runs[-1][1] + 1:
+            runs[-1][1] = m
+        else:
+            runs.append([m, m])
+    return sep.join(("%d" % a) if a == b else ("%d%s%d" % (a, dash, b)) for a, b in runs)
+
+
+def levels_words(levels) -> str:
+    """ "specular level 4", "9 specular levels" (0-8), "specular levels 1-2", "specular levels 0-3 and 5-8"."""
+    levels = sorted(set(levels))
+    if len(levels) == 1:
+        return "specular level %d" % levels[0]
+    if levels and levels[0] == 0 and levels[-1] == len(levels) - 1:
+        return "%d specular levels" % len(levels)
+    return "specular levels " + level_ranges(levels)
+
+
+def and_list(words) -> str:
+    """["a", "b", "c"] -> "a, b and c"."""
+    words = list(words)
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1] if words else ""
 
 
 def thumbnail(linear_rgb, width: int = 256):

@@ -1,16 +1,17 @@
 """The UI's bake as a job the modal operator polls on a timer, so Blender
 never freezes: BakeRun reads the world image's file (or Blender's buffer),
 or has Cycles render the world, then bakes, every slow step off the main
-thread; the worker thread is a BakeJob. No bpy: what needs it comes in as
+thread: in a child process (core/worker.py's BakeProcess, what the add-on
+uses) or on a worker thread (BakeJob). No bpy: what needs it comes in as
 callables (Steps)."""
-import os
 import threading
 import time
 from dataclasses import dataclass
 from typing import Callable, Optional
 
-from . import describe, native, pipeline
-from .world import COLOR, IMAGE, RENDER, FileNotAsBlenderShowsIt, NeedsRender, WorldSource, read_file_pixels
+from . import native, pipeline
+from .world import COLOR, IMAGE, RENDER, FileNotAsBlenderShowsIt, NeedsRender, WorldSource
+from .worker import Work, read_file_natively, read_image, run_work, with_thumbnail  # noqa: F401
 
 
 class BakeJob:
@@ -27,6 +28,7 @@ class BakeJob:
         self.result: Optional[object] = None
         self.error: Optional[BaseException] = None
         self.cancelled = False
+        self.stages = []  # the timed reads of the work (run_work's)
         self._thread = threading.Thread(target=self._run, name="iblbake", daemon=True)
 
     def start(self):
@@ -61,28 +63,6 @@ class BakeJob:
             return self.stage, self.fraction
 
 
-def read_file_natively(source: WorldSource, alpha_matters: bool):
-    """The Environment Texture's file read by the native reader (worker thread)."""
-    core = native.load()
-    return read_file_pixels(source, core.read_image, core.remap_latlong, alpha_matters)
-
-
-def read_image(path: str):
-    return native.load().read_image(path)
-
-
-def with_thumbnail(report):
-    """The report with the panel's thumbnail of preview.png, made on the
-    worker thread rather than on the main thread."""
-    preview = os.path.join(report.out_dir, "preview.png")
-    if os.path.isfile(preview):
-        try:
-            report.thumbnail = describe.thumbnail(read_image(preview))
-        except (OSError, RuntimeError, ValueError):
-            pass
-    return report
-
-
 @dataclass
 class Steps:
     """What the stages run. The first three need bpy (the operator passes
@@ -95,21 +75,30 @@ class Steps:
     # Starts the Cycles render of a RENDER source (filling source.render) and
     # returns it: done(), fraction, result() -> (exr path, notes), cancel(), cleanup().
     start_render: Callable
-    read_file: Callable = read_file_natively   # (source, alpha matters) -> pixels, worker thread
-    read_render: Callable = read_image         # exr path -> pixels, worker thread
+    read_file: Callable = read_file_natively   # (source, alpha matters, progress) -> pixels, worker thread
+    read_render: Callable = read_image         # (exr path, progress) -> pixels, worker thread
     bake: Callable = pipeline.bake             # pipeline.bake's arguments -> BakeReport, worker thread
+    # (Work, source, settings, needs, extra) -> a started job (BakeJob's
+    # interface, `stages` its timed reads); None: a BakeJob running the
+    # three callables above.
+    start_job: Optional[Callable] = None
 
 
 # The native bake's stage names -> what the panel says.
 STAGE_WORDS = {"reading source": "Scanning the image", "specular": "Specular levels", "irradiance": "Irradiance",
                "brdf_lut": "BRDF LUT", "done": "Writing files", "writing": "Writing files", "starting": "Starting",
                "hashing": "Checking for changes"}
-RENDERING = "Rendering the world with Cycles"
-READING_BUFFER = "Reading the image from Blender"
+# (short: the bar is narrow at the Properties editor's default width)
+RENDERING = "Rendering with Cycles"
+STARTING_RENDER = "Starting Cycles"
+SAVING_RENDER = "Saving the render"
+READING_BUFFER = "Reading from Blender"
+READING_FILE = "Reading the image"
+READING_RENDER = "Reading the render"
 
 # The progress bar's share of the stages before the native bake.
 FIRST = 0.02          # while Blender's buffer is read, or the render starts
-READ_SHARE = 0.1      # an image read
+READ_SHARE = 0.15     # an image read
 RENDER_SHARE = 0.6    # a render, then reading it
 
 
@@ -155,14 +144,16 @@ class BakeRun:
             self._job.cancel()
 
     def cleanup(self):
-        """Ends the render, if any, and removes its files."""
+        """Ends the render and the bake's process, if any, and removes their files."""
         if self._render is not None:
             self._render.cleanup()
+        if self._job is not None and hasattr(self._job, "cleanup"):
+            self._job.cleanup()
 
     # -- the steps -----------------------------------------------------------
     def _start(self):
         if self.source.path == COLOR:
-            self._start_thread(None)
+            self._start_work(Work("none"))
         elif self.source.path == IMAGE:
             self._start_image()
         else:
@@ -173,9 +164,8 @@ class BakeRun:
         if plan is None:
             self._to_buffer()
             return
-        source, alpha_matters = self.source, plan[1]
         self._pre = READ_SHARE
-        self._start_thread(lambda: self._steps.read_file(source, alpha_matters), "read_image_file")
+        self._start_work(Work("file", self.source.image_path, plan[1], timed="read_image_file"))
 
     def _to_buffer(self):
         self._step = self._read_buffer
@@ -190,48 +180,51 @@ class BakeRun:
             return
         self._end_stage("read_image_buffer")
         self._pre = READ_SHARE
-        self._start_thread(lambda: pixels)
+        self._start_work(Work("array", array=pixels))
 
     def _start_render(self):
         self._render = self._steps.start_render(self.source)
         self._pre = RENDER_SHARE
         self._step = self._wait_render
-        self._show(RENDERING, FIRST)
+        self._show(STARTING_RENDER, FIRST)
 
     def _wait_render(self):
         render = self._render
-        if not render.done():
-            self._show(RENDERING, FIRST + (self._pre - FIRST) * render.fraction)
+        if not render.done():  # Blender starting and Cycles syncing, then its tiles and samples
+            sampling = getattr(render, "sampling", True)
+            stage = SAVING_RENDER if getattr(render, "saving", False) else RENDERING if sampling else STARTING_RENDER
+            self._show(stage, FIRST + (self._pre - FIRST) * (render.fraction if sampling else 0.0))
             return
         path, notes = render.result()
         self.source.render["notes"] = self.source.render.get("notes", []) + notes
         self._end_stage("render_world")
-        self._start_thread(lambda: self._steps.read_render(path), "read_render")
+        self._start_work(Work("render", path, timed="read_render"))
 
-    def _start_thread(self, pixels_fn, pre_name=None):
-        self._job = BakeJob(self._work(pixels_fn, pre_name)).start()
+    def _start_work(self, work: Work):
+        """The rest off the main thread: the read `work` names, then the bake."""
+        extra = dict(self._extra, waited={name: round(sec, 4) for name, sec in self.stages})
+        if self._steps.start_job is not None:
+            self._job = self._steps.start_job(work, self.source, self._settings, self._needs, extra)
+        else:
+            steps, source, settings, needs = self._steps, self.source, self._settings, self._needs
+
+            def run(progress):
+                report, stages = run_work(work, source, settings, needs, extra, progress, steps.read_file,
+                                          steps.read_render, steps.bake)
+                job.stages = stages
+                return report
+            job = self._job = BakeJob(run)  # bound before it starts: run() reads it
+            job.start()
         self._step = self._wait_thread
-
-    def _work(self, pixels_fn, pre_name):
-        """The worker thread's part: pixels_fn() (reading a file, say), then the native bake."""
-        def work(progress):
-            pixels = None
-            if pixels_fn is not None:
-                start = time.perf_counter()
-                progress("reading", 0.0)
-                pixels = pixels_fn()
-                if pre_name:
-                    self.stages.append((pre_name, time.perf_counter() - start))
-            extra = dict(self._extra, waited={name: round(sec, 4) for name, sec in self.stages})
-            return with_thumbnail(self._steps.bake(self.source, pixels, self._settings, self._needs, progress, extra))
-        return work
 
     def _wait_thread(self):
         job = self._job
         stage, fraction = job.status()
-        if stage == "reading":
-            self._show("Reading the world image" if self.source.path == IMAGE else "Reading the render", self._pre / 2)
-        else:
+        if stage == "reading":  # the file's rows read so far
+            start = FIRST if self.source.path == IMAGE else self._pre
+            self._show(READING_FILE if self.source.path == IMAGE else READING_RENDER,
+                       start + (self._pre - start) * fraction)
+        elif stage != "starting":
             self._show(STAGE_WORDS.get(stage, stage.capitalize()), self._pre + (1 - self._pre) * fraction)
         if not job.done():
             return
@@ -257,6 +250,7 @@ class BakeRun:
         if job.cancelled or job.error is not None:
             self._end(cancelled=job.cancelled, error=job.error)
             return
+        self.stages.extend(getattr(job, "stages", None) or [])
         self._end_stage("bake")
         job.result.seconds = time.perf_counter() - self._clicked  # what the user waited, from the click
         self._end(report=job.result)

@@ -30,6 +30,10 @@ SCENE_OUTPUTS = ("irradiance", "specular", "lut", "sun")
 # Rows shown only when another option has a value (the panel hides them otherwise).
 REQUIRES = {"png_encoding": ("formats", "png"), "exposure": ("formats", "png")}
 
+# Choices Blender labels its own way: the "source" preset (the cleaned
+# lat-long for engines that filter it themselves) would read as Valve's engine.
+CHOICE_LABELS = {("presets", "source"): "UE/Godot"}
+
 
 def rows():
     """Every option offered in Blender, native ones first, each a dict as
@@ -39,8 +43,27 @@ def rows():
         if row["blender"]:
             row = dict(row)
             row["default"] = BLENDER_DEFAULTS.get(row["name"], row["default"])
+            if row.get("choices"):
+                row["choices"] = [dict(c, label=CHOICE_LABELS.get((row["name"], c["value"]), c["label"]))
+                                  for c in row["choices"]]
             out.append(row)
     return out + [dict(r) for r in ADDON_ROWS]
+
+
+def choice_label(name: str, value: str) -> str:
+    """The label of one choice of a row ("three" -> "three.js"): what its button says."""
+    if not _LABELS:
+        _LABELS.update({(r["name"], c["value"]): c["label"] for r in rows() for c in r.get("choices") or []})
+    return _LABELS.get((name, value), value)
+
+
+_LABELS = {}
+
+
+def in_table_order(name: str, values):
+    """values of a list row in the order of its choices (the buttons' order), unknown ones last."""
+    order = {c["value"]: i for r in rows() if r["name"] == name for i, c in enumerate(r.get("choices") or [])}
+    return sorted(values, key=lambda v: (order.get(v, len(order)), v))
 
 
 def native_names():

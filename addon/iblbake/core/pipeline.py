@@ -34,16 +34,15 @@ class BakeReport:
     seconds: float = 0.0
     thumbnail: Optional[object] = None  # the preview sheet, small, for the panel (set by the UI's job)
 
-    def summary(self) -> str:
+    def summary(self, folder: bool = False) -> str:
+        """What the bake did, in the panel's words ("Baked in 3.21 s: irradiance,
+        9 specular levels, BRDF LUT, three.js"); with folder, where to."""
+        where = " into %s" % self.out_dir if folder else ""
         if self.status == "unchanged":
-            return "World and settings unchanged since the bake in %s (hash %s): nothing to do" % (
-                self.out_dir, self.content_hash[:12])
-        spec = self.manifest.get("specular") or []
-        levels = ("specular levels %d-%d" % (spec[0]["level"], spec[-1]["level"])) if spec else "no specular"
-        presets = sorted(self.manifest.get("presets") or {})
-        return "Baked in %.2f s into %s (%s%s%s%s)" % (
-            self.seconds, self.out_dir, "irradiance, " if self.manifest.get("irradiance") else "", levels,
-            ", LUT" if self.manifest.get("brdf_lut") else "", ", for " + ", ".join(presets) if presets else "")
+            return ("Nothing to bake%s: the world and the settings are unchanged since the last bake "
+                    "(tick Bake Even If Unchanged to bake anyway)" % where)
+        from .folder import outputs_of_manifest
+        return "Baked in %.2f s%s: %s" % (self.seconds, where, outputs_of_manifest(self.manifest).words())
 
 
 def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
@@ -67,18 +66,28 @@ def native_options(settings: BakeSettings, needs: Optional[Needs]) -> dict:
     return opts
 
 
-def pixels_sha256(pixels: np.ndarray) -> str:
+HASH_SHARE = 0.03  # the progress bar's share of the native bake's range while the pixels are hashed
+
+
+def pixels_sha256(pixels: np.ndarray, progress: Optional[ProgressFn] = None) -> str:
     """sha256 of the RGB float32 pixels: the hash iblbake_core.bake() would
-    write for them, computed once here and handed to it (source_sha256)."""
+    write for them, computed once here and handed to it (source_sha256).
+    Hashed in bands of rows, `progress("hashing", f)` after each (False
+    cancels: iblbake_core.Cancelled)."""
     a = np.ascontiguousarray(np.asarray(pixels, np.float32)[..., :3])
-    return hashlib.sha256(memoryview(a).cast("B")).hexdigest()
-
-
-def content_hash(source: WorldSource, pixel_digest: Optional[str], opts: dict, settings: BakeSettings,
-                 core_version: str) -> str:
-    """sha256 of the radiance the bake reads (pixel_digest, from pixels_sha256,
-    or the plain colour) and of every setting that changes a file."""
     h = hashlib.sha256()
+    rows = a.shape[0] if a.ndim == 3 else 1
+    band = max(1, rows // 16)
+    flat = memoryview(a.reshape(rows, -1))
+    for y in range(0, rows, band):
+        h.update(flat[y:y + band].cast("B"))  # releases the GIL
+        if progress is not None and progress("hashing", HASH_SHARE * min(rows, y + band) / rows) is False:
+            raise native.load().Cancelled()
+    return h.hexdigest()
+
+
+def _hash_meta(source: WorldSource, opts: dict, settings: BakeSettings) -> dict:
+    """Every setting that changes a file, as content_hash and settings_hash read them."""
     fields = settings.hash_fields()
     if "png" not in settings.formats:  # PNG-only settings change no file
         for k in ("png_encoding", "exposure"):
@@ -86,15 +95,30 @@ def content_hash(source: WorldSource, pixel_digest: Optional[str], opts: dict, s
     if source.path != RENDER:  # the render settings only matter to rendered worlds
         for k in ("render_width", "render_samples"):
             fields.pop(k)
-    meta = {"core": core_version, "settings": fields,
-            "options": {k: v for k, v in opts.items() if k not in ("threads", "png_encoding", "exposure")},
-            "path": source.path}
+    return {"settings": fields, "path": source.path,
+            "options": {k: v for k, v in opts.items() if k not in ("threads", "png_encoding", "exposure")}}
+
+
+def content_hash(source: WorldSource, pixel_digest: Optional[str], opts: dict, settings: BakeSettings,
+                 core_version: str) -> str:
+    """sha256 of the radiance the bake reads (pixel_digest, from pixels_sha256,
+    or the plain colour) and of every setting that changes a file."""
+    h = hashlib.sha256()
+    meta = dict(_hash_meta(source, opts, settings), core=core_version)
     h.update(json.dumps(meta, sort_keys=True, default=str).encode())
     if pixel_digest is not None:
         h.update(pixel_digest.encode())
     else:
         h.update(np.asarray(source.color, np.float32).tobytes())
     return h.hexdigest()
+
+
+def settings_hash(source: WorldSource, settings: BakeSettings, needs: Optional[Needs] = None) -> str:
+    """sha256 of the settings alone (what the scene's materials leave out
+    included): the panel compares it with the folder's manifest to say
+    whether the settings changed since its bake, without reading a pixel."""
+    meta = _hash_meta(source, native_options(settings, needs), settings)
+    return hashlib.sha256(json.dumps(meta, sort_keys=True, default=str).encode()).hexdigest()
 
 
 def file_sha256(path: str) -> str:
@@ -187,7 +211,7 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
     if progress is not None and progress("hashing", 0.0) is False:
         raise core.Cancelled()
     hash_start = time.perf_counter()
-    pixel_digest = pixels_sha256(pixels) if pixels is not None else None
+    pixel_digest = pixels_sha256(pixels, progress) if pixels is not None else None
     hash_seconds = time.perf_counter() - hash_start
     digest = content_hash(source, pixel_digest, opts, settings, core.__version__)
     if not settings.force and existing_hash(out_dir) == digest:
@@ -198,6 +222,7 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
     blender["needs"] = needs.to_json() if needs is not None else None
     blender["auto_skip"] = settings.auto_skip
     blender["content_hash"] = digest
+    blender["settings_hash"] = settings_hash(source, settings, needs)
     if "waited" in blender:  # the stages before the native bake, as the UI's job ran them
         blender["waited"] = dict(blender["waited"], hash_pixels=round(hash_seconds, 4))
     opts["manifest_extra"] = {"blender": blender}

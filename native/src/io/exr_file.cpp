@@ -148,6 +148,39 @@ void check_exr_headers(const std::string& path, uintmax_t file_size) {
 }
 
 namespace {
+// The scan lines one compressed block of a file holds.
+int lines_per_block(Imf::Compression c) {
+    switch (c) {
+        case Imf::NO_COMPRESSION:
+        case Imf::RLE_COMPRESSION:
+        case Imf::ZIPS_COMPRESSION: return 1;
+        case Imf::ZIP_COMPRESSION:
+        case Imf::PXR24_COMPRESSION: return 16;
+        case Imf::DWAB_COMPRESSION: return 256;
+        default: return 32;  // PIZ, B44, B44A, DWAA
+    }
+}
+
+// The rows of an EXR read in bands, progress reported after each: a band
+// holds a block per thread of the pool (at least 128 rows), so the threads
+// still decode side by side.
+template <typename ReadRows>
+void read_in_bands(int y_min, int y_max, Imf::Compression compression, const std::function<void(double)>& progress,
+                   ReadRows&& read_rows) {
+    if (!progress) {
+        read_rows(y_min, y_max);
+        return;
+    }
+    const int band = std::max(128, lines_per_block(compression) * exr_threads());
+    const double rows = double(y_max) - y_min + 1;
+    for (int y = y_min; y <= y_max;) {
+        const int last = int(std::min<int64_t>(int64_t(y) + band - 1, y_max));
+        read_rows(y, last);
+        progress((double(last) - y_min + 1) / rows);
+        if (last == y_max) break;
+        y = last + 1;
+    }
+}
 
 // The channels a part's radiance is read from: R, G, B; else a layer's
 // R, G, B (Blender's multilayer `ViewLayer.Combined.R`, a pass's
@@ -205,7 +238,8 @@ ChannelChoice choose_channels(const Imf::ChannelList& ch, std::string& why) {
 }
 
 template <typename In>
-void read_part(In& in, const std::vector<std::string>& names, RawPixels& out) {
+void read_part(In& in, const std::vector<std::string>& names, RawPixels& out,
+               const std::function<void(double)>& progress) {
     const Imath::Box2i dw = in.header().dataWindow();
     if (!in.isComplete()) throw std::runtime_error("file is truncated or damaged (rows are missing)");
     for (const std::string& n : names) {
@@ -226,7 +260,7 @@ void read_part(In& in, const std::vector<std::string>& names, RawPixels& out) {
     for (int c = 0; c < out.channels; ++c)
         fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
     in.setFrameBuffer(fb);
-    in.readPixels(dw.min.y, dw.max.y);
+    read_in_bands(dw.min.y, dw.max.y, in.header().compression(), progress, [&](int a, int b) { in.readPixels(a, b); });
 }
 
 // Sizes and windows of the part that is read.
@@ -254,7 +288,7 @@ void note_choice(const ChannelChoice& c, RawPixels& out) {
 }
 
 // A multi-part file: the first part with colour (else the first with Y).
-RawPixels read_exr_parts(const std::string& path, uintmax_t file_size) {
+RawPixels read_exr_parts(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress) {
     Imf::MultiPartInputFile file(path.c_str(), exr_line_buffer_threads());
     int best = -1;
     ChannelChoice choice;
@@ -279,7 +313,7 @@ RawPixels read_exr_parts(const std::string& path, uintmax_t file_size) {
     const Imf::Header& h = file.header(best);
     take_windows(h, h.channels(), file_size, out);
     Imf::InputPart part(file, best);
-    read_part(part, choice.names, out);
+    read_part(part, choice.names, out, progress);
     note_choice(choice, out);
     if (best > 0)
         out.warnings.push_back("the file has " + std::to_string(file.parts()) + " parts: part " + std::to_string(best) +
@@ -290,13 +324,13 @@ RawPixels read_exr_parts(const std::string& path, uintmax_t file_size) {
 
 }  // namespace
 
-RawPixels read_exr(const std::string& path, uintmax_t file_size) {
+RawPixels read_exr(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress) {
     limit_exr_sizes();
     check_exr_headers(path, file_size);
     {
         std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
         unsigned char head[8] = {0};
-        if (f && std::fread(head, 1, 8, f.get()) == 8 && (head[5] & 0x10)) return read_exr_parts(path, file_size);
+        if (f && std::fread(head, 1, 8, f.get()) == 8 && (head[5] & 0x10)) return read_exr_parts(path, file_size, progress);
         if (head[5] & 0x08) throw std::runtime_error("a deep OpenEXR file (samples per pixel, not an image) cannot be baked");
     }
     RawPixels out;
@@ -313,7 +347,7 @@ RawPixels read_exr(const std::string& path, uintmax_t file_size) {
         Imf::RgbaInputFile rgba(path.c_str(), exr_line_buffer_threads());
         std::vector<Imf::Rgba> px(size_t(out.width) * out.height);
         rgba.setFrameBuffer(px.data() - dw.min.x - size_t(dw.min.y) * out.width, 1, out.width);
-        rgba.readPixels(dw.min.y, dw.max.y);
+        read_in_bands(dw.min.y, dw.max.y, h.compression(), progress, [&](int a, int b) { rgba.readPixels(a, b); });
         out.channels = 3;
         out.data.resize(px.size() * 3);
         for (size_t p = 0; p < px.size(); ++p) {
@@ -326,7 +360,7 @@ RawPixels read_exr(const std::string& path, uintmax_t file_size) {
     std::string why;
     const ChannelChoice choice = choose_channels(ch, why);
     if (choice.names.empty()) throw std::runtime_error(why);
-    read_part(in, choice.names, out);
+    read_part(in, choice.names, out, progress);
     note_choice(choice, out);
     return out;
 }

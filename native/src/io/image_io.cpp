@@ -288,7 +288,7 @@ void detail::check_declared(int64_t width, int64_t height, int channels, uintmax
                                  std::to_string(file_size) + " bytes: truncated or damaged");
 }
 
-LoadedImage read_image(const std::string& path) {
+LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
     namespace fs = std::filesystem;
     std::error_code ec;
     // stat() before open(): a FIFO would block the open, a device never ends.
@@ -325,11 +325,17 @@ LoadedImage read_image(const std::string& path) {
                        "bake from the EXR or HDR it was made from");
     }
     try {
-        if (format == "openexr") return finish(detail::read_exr(path, size));
-        if (format == "png") return finish(detail::read_png(path, size));
-        if (format == "jpeg") return finish(detail::read_jpeg(path, size));
-        if (format == "tiff") detail::check_tiff_complete(path, size);
-        return finish(read_with_plugin(path, format, size));
+        if (format == "openexr") return finish(detail::read_exr(path, size, progress));
+        if (format == "png") return finish(detail::read_png(path, size, progress));
+        LoadedImage out;
+        if (format == "jpeg") {
+            out = finish(detail::read_jpeg(path, size));
+        } else {
+            if (format == "tiff") detail::check_tiff_complete(path, size);
+            out = finish(read_with_plugin(path, format, size));
+        }
+        if (progress) progress(1.0);
+        return out;
     } catch (const std::bad_alloc&) {
         fail(path, "out of memory while reading");
     } catch (const std::runtime_error& e) {

@@ -45,7 +45,8 @@ struct PngOut {
 
 // Every libpng call, in a frame of its own that holds no C++ object: an
 // error longjmps back here and the caller throws.
-bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FILE* f, uintmax_t file_size) {
+bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FILE* f, uintmax_t file_size,
+                   const std::function<void(double)>* progress) {
     if (setjmp(st->jump)) return false;
     png_init_io(png, f);
     png_read_info(png, info);
@@ -56,7 +57,7 @@ bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FI
     if (type == PNG_COLOR_TYPE_GRAY && depth < 8) png_set_expand_gray_1_2_4_to_8(png);
     if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
     if (depth == 16) png_set_swap(png);  // host order
-    png_set_interlace_handling(png);
+    const int passes = png_set_interlace_handling(png);
     png_read_update_info(png, info);
     o->channels = png_get_channels(png, info);
     o->bytes = png_get_bit_depth(png, info) == 16 ? 2 : 1;
@@ -71,13 +72,19 @@ bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FI
     o->buffer.resize(stride * o->h);
     o->rows.resize(o->h);
     for (png_uint_32 y = 0; y < o->h; ++y) o->rows[y] = o->buffer.data() + y * stride;
-    png_read_image(png, o->rows.data());
+    // Bands of 64 rows (every pass of an interlaced file), progress after each.
+    for (int pass = 0; pass < passes; ++pass)
+        for (png_uint_32 y = 0; y < o->h; y += 64) {
+            const png_uint_32 n = std::min<png_uint_32>(64, o->h - y);
+            png_read_rows(png, o->rows.data() + y, nullptr, n);
+            if (*progress) (*progress)((double(pass) * o->h + y + n) / (double(passes) * o->h));
+        }
     png_read_end(png, nullptr);
     return true;
 }
 }  // namespace
 
-RawPixels read_png(const std::string& path, uintmax_t file_size) {
+RawPixels read_png(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress) {
     std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
     if (!f) throw std::runtime_error("cannot open the file");
     ReadState st;
@@ -92,7 +99,7 @@ RawPixels read_png(const std::string& path, uintmax_t file_size) {
     } guard{&png, &info};
     if (!png || !info) throw std::runtime_error("libpng could not start");
     PngOut o;
-    if (!png_read_core(png, info, &st, &o, f.get(), file_size)) throw std::runtime_error("PNG " + st.error);
+    if (!png_read_core(png, info, &st, &o, f.get(), file_size, &progress)) throw std::runtime_error("PNG " + st.error);
     RawPixels out;
     out.format = "png";
     out.width = int(o.w);

@@ -29,8 +29,9 @@ bool is_exr(const std::string& path);
 // Throws unless width x height x channels floats is within the maximum size
 // and plausible for a file of `file_size` bytes (io/image_io.h).
 void check_declared(int64_t width, int64_t height, int channels, uintmax_t file_size);
-RawPixels read_exr(const std::string& path, uintmax_t file_size);
-RawPixels read_png(const std::string& path, uintmax_t file_size);
+// `progress` (may be empty): the share of rows decoded, after each band.
+RawPixels read_exr(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress);
+RawPixels read_png(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress);
 RawPixels read_jpeg(const std::string& path, uintmax_t file_size);
 // Throws unless every strip or tile a TIFF's first image lists lies within
 // the file (libtiff reads a cut file's missing strips as black, quietly).

@@ -82,9 +82,10 @@ void draw_text(Image& img, int x, int y, const std::string& s) {
     }
 }
 
-std::string roughness_label(double r) {
-    char buf[32];
-    std::snprintf(buf, sizeof(buf), "R %.3g", r);
+// A specular level's column: "4: 0.5", its level and roughness (the row's heading says which is which).
+std::string level_label(int level, double r) {
+    char buf[48];
+    std::snprintf(buf, sizeof(buf), "%d: %.3g", level, r);
     return buf;
 }
 
@@ -309,13 +310,13 @@ Image render_preview(const BakeResult& r, const PreviewOptions& o) {
     if (r.specular.empty()) return img;
 
     // Specular levels, then the spheres at each level's roughness.
-    draw_text(img, kMargin, l.y_spec, "SPECULAR LEVELS");
+    draw_text(img, kMargin, l.y_spec, "SPECULAR LEVEL: ROUGHNESS");
     draw_text(img, kMargin, l.y_metal, "METAL");
     draw_text(img, kMargin, l.y_diel, "DIELECTRIC");
     for (size_t k = 0; k < r.specular.size(); ++k) {
         const int x = column_x(l, k);
         const int level = k < r.specular_levels.size() ? r.specular_levels[k] : int(k);
-        draw_text(img, x, l.y_spec + kLabel, std::to_string(level) + " " + roughness_label(r.roughness.at(k)));
+        draw_text(img, x, l.y_spec + kLabel, level_label(level, r.roughness.at(k)));
         draw_cross(img, x, l.y_spec + 2 * kLabel, l.cross_w, r.specular[k], scale);
         for (bool metal : {true, false}) {
             const int y = (metal ? l.y_metal : l.y_diel) + kLabel;

@@ -46,7 +46,12 @@ void check_source_size(int64_t width, int64_t height, const std::string& what = 
 // oversized files. An EXR's display window is baked when it holds the data
 // window and is at most 4 times its size (outside the data is black),
 // else the data window alone, with a warning.
-LoadedImage read_image(const std::string& path);
+// `progress`, when given, is called on the reading thread with the share of
+// the file's rows decoded so far (0..1): after each band of rows of an EXR or
+// PNG file (the UI's progress bar during an 8K read), once at the end for
+// the other formats.
+using ReadProgress = std::function<void(double fraction)>;
+LoadedImage read_image(const std::string& path, const ReadProgress& progress = {});
 
 // The format read_image takes `path` for ("openexr", "png", "jpeg", "hdr",
 // "tiff", ...; "" when neither its first bytes nor its extension name one).
