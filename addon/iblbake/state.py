@@ -28,6 +28,7 @@ class Last:
     error: str = ""
     out_dir: str = ""
     content_hash: str = ""
+    outcome: str = ""              # the report's status: "baked" or "unchanged" (bake_world.py --batch)
     files: List[Tuple[str, int]] = field(default_factory=list)
     total_bytes: int = 0
     preview: str = ""              # preview.png's path, when the bake wrote one
@@ -58,6 +59,7 @@ def set_baked(scene_name: str, report, stages=()):
     preview = os.path.join(report.out_dir, "preview.png")
     set_last(scene_name, Last(
         status=report.summary(), kind="INFO", out_dir=report.out_dir, content_hash=report.content_hash,
+        outcome=report.status,
         files=files, total_bytes=total, preview=preview if os.path.isfile(preview) else "",
         thumbnail=report.thumbnail, stages=list(stages)))
     redraw()

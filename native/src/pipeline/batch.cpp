@@ -93,10 +93,8 @@ std::vector<World> gather_worlds(const std::vector<std::string>& inputs, const s
             }
             std::sort(files.begin(), files.end());
             for (const std::string& f : files) add((fs::path(input) / f).string());
-        } else if (fs::exists(st)) {
-            add(input);  // any kind of file: one the reader refuses fails as a world, the others go on
         } else {
-            throw std::runtime_error("no such file or folder: " + io::printable(input));
+            add(input);  // a missing file, or one the reader refuses, fails as a world; the others go on
         }
     }
     name_worlds(worlds);
@@ -358,6 +356,7 @@ std::vector<Entry> run_batch(const std::vector<World>& worlds, const fs::path& o
         const World& w = worlds[k];
         Entry e{w, "failed", "", "", 0.0, false};
         const fs::path dir = out / w.name;
+        std::error_code ec;
         const auto start = std::chrono::steady_clock::now();
         auto stage = [&](const std::string& s, double f) {
             if (!events.stage) return;
@@ -366,6 +365,9 @@ std::vector<Entry> run_batch(const std::vector<World>& worlds, const fs::path& o
         };
         try {
             stage("hashing", 0.0);
+            if (!fs::is_regular_file(w.source, ec))
+                throw std::runtime_error(fs::exists(w.source, ec) ? "not a regular file: " + io::printable(w.source)
+                                                                  : "no such file: " + io::printable(w.source));
             const std::string sha = io::sha256_file(w.source);
             e.content_hash = content_hash(sha, with_preview);
             stage("checking", 0.0);

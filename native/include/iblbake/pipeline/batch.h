@@ -41,8 +41,9 @@ std::vector<std::string> read_list_file(const std::string& path);
 // (list files' lines where they stand), each folder replaced by its files
 // with one of `extensions` (not recursive, sorted by file name bytewise).
 // The same file given twice (same canonical path) is one world. Names from
-// name_worlds(). Throws std::runtime_error for an input that does not
-// exist or a folder that cannot be read (a bad file is a failed world later).
+// name_worlds(). A missing or unreadable file is a world that fails when
+// baked (the others go on); a folder that cannot be listed throws
+// std::runtime_error.
 std::vector<World> gather_worlds(const std::vector<std::string>& inputs,
                                  const std::vector<std::string>& extensions = image_extensions());
 

@@ -1,0 +1,226 @@
+"""The CLI's batch (iblbake bake A.exr B.exr DIR/ --list FILE -o OUT): names,
+the index, failures, resume, --force, shards, --jobs, the progress display,
+and that one file is still today's single bake."""
+import json
+import os
+import pty
+import select
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+import iblbake_core
+
+CLI = os.environ.get("IBLBAKE_CLI") or os.path.join(os.path.dirname(__file__), "..", "..", "build", "native", "iblbake")
+SMALL = ["--face-size", "16", "--irradiance-size", "8", "--lut-size", "16", "--mips", "3"]
+
+
+def cli(*args, cwd=None):
+    return subprocess.run([CLI, *args], capture_output=True, text=True, cwd=cwd)
+
+
+def world(path, seed):
+    """A small lat-long EXR, different for each seed."""
+    rng = np.random.default_rng(seed)
+    img = rng.random((16, 32, 3), dtype=np.float32) * np.float32(1 + seed % 5)
+    os.makedirs(os.path.dirname(str(path)), exist_ok=True)
+    iblbake_core.write_exr(str(path), img)
+    return str(path)
+
+
+def index(out):
+    with open(os.path.join(str(out), "index.json")) as f:
+        return json.load(f)
+
+
+def by_name(idx):
+    return {w["name"]: w for w in idx["worlds"]}
+
+
+def file_hashes(folder):
+    """Every file of a bake by its sha256, as its manifest lists them."""
+    with open(os.path.join(str(folder), "manifest.json")) as f:
+        return {k: v["sha256"] for k, v in json.load(f)["files"].items()}
+
+
+def mtimes(out):
+    return {os.path.join(r, f): os.stat(os.path.join(r, f)).st_mtime_ns
+            for r, _, fs in os.walk(str(out)) for f in fs if not f.startswith("index.")}
+
+
+@pytest.fixture
+def lib(tmp_path):
+    """A folder of three worlds, two more of one name elsewhere, a broken one."""
+    d = tmp_path / "lib"
+    for k, name in enumerate(("alpha", "beta", "my world \u00fc")):
+        world(d / (name + ".exr"), k)
+    world(tmp_path / "x" / "forest.exr", 10)
+    world(tmp_path / "y" / "Forest.exr", 11)
+    (d / "broken.exr").write_bytes(b"not an exr\n" * 10)
+    (d / "notes.txt").write_text("not a world: a folder takes images only")
+    return tmp_path
+
+
+def test_names_index_gallery_and_failures(lib):
+    out = lib / "out"
+    r = cli("bake", str(lib / "lib"), str(lib / "x" / "forest.exr"), str(lib / "y" / "Forest.exr"),
+            str(lib / "missing.exr"), "-o", str(out), *SMALL)
+    assert r.returncode == 1, r.stdout + r.stderr
+    idx = index(out)
+    names = [w["name"] for w in idx["worlds"]]
+    # the folder's images sorted by name, then the files as given; notes.txt is not an image
+    assert names[:4] == ["alpha", "beta", "broken", "my_world___"]
+    # forest.exr and Forest.exr: one name without case, so each gets its path's hash
+    assert names[4].startswith("forest-") and names[5].startswith("Forest-") and names[4][7:] != names[5][7:]
+    assert names[6] == "missing"
+    w = by_name(idx)
+    assert idx["counts"] == {"baked": 5, "unchanged": 0, "failed": 2}
+    assert w["broken"]["status"] == "failed" and "broken.exr" in w["broken"]["error"]
+    assert w["missing"]["status"] == "failed" and "no such file" in w["missing"]["error"]
+    assert not (out / "broken").exists() and not (out / "missing").exists()
+    for name in ("alpha", "beta", "my_world___", names[4], names[5]):
+        assert w[name]["status"] == "baked" and w[name]["error"] is None
+        assert w[name]["preview"] == name + "/preview.png" and (out / name / "preview.png").is_file()
+        with open(out / name / "manifest.json") as f:
+            m = json.load(f)
+        assert m["batch"] == {"content_hash": w[name]["content_hash"], "name": name}
+    # the two forests are two bakes of two worlds
+    assert file_hashes(out / names[4]) != file_hashes(out / names[5])
+    # one line on stderr per failure, after the others were baked
+    errors = [line for line in r.stderr.splitlines() if line.startswith("iblbake: error: ")]
+    assert len(errors) == 2 and "broken" in errors[0] and "missing" in errors[1]
+    assert "[7/7]" in r.stdout and "5 baked, 0 unchanged, 2 failed of 7 worlds" in r.stdout
+    html = (out / "index.html").read_text()
+    assert html.index("broken") < html.index("alpha")  # failures first
+    assert 'src="alpha/preview.png"' in html and "no such file" in html
+
+
+def test_resume_changed_options_and_force(lib):
+    out = lib / "out"
+    src = [str(lib / "lib" / "alpha.exr"), str(lib / "lib" / "beta.exr")]
+    assert cli("bake", *src, "-o", str(out), *SMALL).returncode == 0
+    first = index(out)
+    before = mtimes(out)
+    r = cli("bake", *src, "-o", str(out), *SMALL)
+    assert r.returncode == 0 and "0 baked, 2 unchanged, 0 failed" in r.stdout
+    assert mtimes(out) == before  # nothing rewritten
+    assert [w["content_hash"] for w in index(out)["worlds"]] == [w["content_hash"] for w in first["worlds"]]
+    # threads change no file: still unchanged
+    assert "2 unchanged" in cli("bake", *src, "-o", str(out), *SMALL, "--threads", "1").stdout
+    # a changed source is baked again, the other is not
+    world(lib / "lib" / "beta.exr", 99)
+    w = by_name(index(out) if cli("bake", *src, "-o", str(out), *SMALL).returncode == 0 else {})
+    assert w["alpha"]["status"] == "unchanged" and w["beta"]["status"] == "baked"
+    assert w["beta"]["content_hash"] != by_name(first)["beta"]["content_hash"]
+    # a damaged output is baked again
+    with open(out / "alpha" / "specular_0.exr", "r+b") as f:
+        f.seek(100)
+        f.write(b"\0\0\0\0")
+    assert by_name(index(out) if cli("bake", *src, "-o", str(out), *SMALL).returncode == 0 else {})[
+        "alpha"]["status"] == "baked"
+    # an option that changes files: every world
+    r = cli("bake", *src, "-o", str(out), *SMALL, "--rotation", "30")
+    assert "2 baked, 0 unchanged" in r.stdout
+    # --force bakes what is unchanged
+    r = cli("bake", *src, "-o", str(out), *SMALL, "--rotation", "30", "--force")
+    assert "2 baked, 0 unchanged" in r.stdout
+
+
+def test_one_file_is_todays_single_bake(lib, tmp_path):
+    src = str(lib / "lib" / "alpha.exr")
+    out = tmp_path / "single"
+    r = cli("bake", src, "-o", str(out), *SMALL)
+    assert r.returncode == 0 and r.stdout.startswith("baked ")
+    assert (out / "manifest.json").is_file() and not (out / "index.json").exists()
+    with open(out / "manifest.json") as f:
+        assert "batch" not in json.load(f)
+    r = cli("bake", src, "-o", str(tmp_path / "other"), "--jobs", "2")
+    assert r.returncode == 1 and "apply to a batch" in r.stderr and not (tmp_path / "other").exists()
+    # a batch never writes into a single bake's folder
+    r = cli("bake", src, str(lib / "lib" / "beta.exr"), "-o", str(out), *SMALL)
+    assert r.returncode == 1 and "holds a single bake" in r.stderr
+    # a folder without images
+    (tmp_path / "empty").mkdir()
+    r = cli("bake", str(tmp_path / "empty"), "-o", str(tmp_path / "none"))
+    assert r.returncode == 1 and "no worlds to bake" in r.stderr and not (tmp_path / "none").exists()
+    r = cli("bake", "--list", str(lib / "nolist.txt"), "-o", str(tmp_path / "none"))
+    assert r.returncode == 1 and "cannot read the list file" in r.stderr
+    r = cli("bake", str(lib / "lib"), "-o", str(tmp_path / "none"), "--shard", "3/3")
+    assert r.returncode == 1 and "--shard must be I/N" in r.stderr
+
+
+def test_list_file_shards_and_jobs_equal_a_local_run(tmp_path):
+    names = []
+    for k in range(7):
+        world(tmp_path / "w" / ("w%d.exr" % k), k)
+        names.append("w%d" % k)
+    lst = tmp_path / "worlds.txt"
+    lst.write_text("# the library\n" + "".join("w/w%d.exr\n" % k for k in range(7)) + "\n")
+    local = tmp_path / "local"
+    assert cli("bake", "--list", str(lst), "-o", str(local), *SMALL).returncode == 0
+    assert [w["name"] for w in index(local)["worlds"]] == names
+    farm = tmp_path / "farm"
+    for i in range(3):
+        r = cli("bake", "--list", str(lst), "-o", str(farm), *SMALL, "--shard", "%d/3" % i)
+        assert r.returncode == 0, r.stderr
+        with open(farm / ("index.%d-of-3.json" % i)) as f:
+            part = json.load(f)
+        assert part["shard"] == "%d/3" % i and [w["name"] for w in part["worlds"]] == names[i::3]
+    assert not (farm / "index.json").exists()
+    for n in names:
+        assert file_hashes(farm / n) == file_hashes(local / n), n
+    # the run without --shard finds everything baked and writes the whole index
+    r = cli("bake", "--list", str(lst), "-o", str(farm), *SMALL)
+    assert r.returncode == 0 and "0 baked, 7 unchanged" in r.stdout
+    assert [w["content_hash"] for w in index(farm)["worlds"]] == [w["content_hash"] for w in index(local)["worlds"]]
+    # several worlds at once: the same files
+    jobs = tmp_path / "jobs"
+    r = cli("bake", "--list", str(lst), "-o", str(jobs), *SMALL, "--jobs", "3", "--no-cache")
+    assert r.returncode == 0 and "7 baked" in r.stdout, r.stderr
+    for n in names:
+        assert file_hashes(jobs / n) == file_hashes(local / n), n
+    # the module gives bake_world.py the same worlds and shards
+    got = iblbake_core.batch_worlds([], [str(lst)], shard="1/3")
+    assert [w["name"] for w in got] == names[1::3]
+    assert iblbake_core.intact_manifest(str(local / "w0"))["batch"]["name"] == "w0"
+    assert iblbake_core.intact_manifest(str(tmp_path / "w")) is None
+
+
+def run_on_a_terminal(args, timeout=120):
+    """Runs the CLI with a pseudo-terminal as stdout and stderr; returns (code, what it printed)."""
+    pid, fd = pty.fork()
+    if pid == 0:
+        os.execv(CLI, [CLI, *args])
+    out = b""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        r, _, _ = select.select([fd], [], [], 0.5)
+        if r:
+            try:
+                chunk = os.read(fd, 65536)
+            except OSError:
+                break
+            if not chunk:
+                break
+            out += chunk
+    _, status = os.waitpid(pid, 0)
+    os.close(fd)
+    return os.waitstatus_to_exitcode(status), out.decode("utf-8", "replace")
+
+
+def test_progress_bar_on_a_terminal_and_lines_otherwise(lib):
+    args = ["bake", str(lib / "lib"), "-o", str(lib / "tty"), *SMALL]
+    code, text = run_on_a_terminal(args)
+    assert code == 1
+    # a bar redrawn in place: worlds done, the current world's stage, rate, ETA
+    assert "\r[" in text and "\033[K" in text and "ETA " in text
+    assert "worlds/min" in text and "/4 " in text
+    assert any(s in text for s in (": hashing", ": reading", ": specular", ": writing"))
+    assert "failed broken" in text  # a failure stays on screen as a line
+    # not a terminal: one plain line per world, no escape codes
+    r = cli(*args)
+    assert "\033" not in r.stdout + r.stderr and "\r" not in r.stdout + r.stderr
+    assert [line.split("] ")[1].split()[0] for line in r.stdout.splitlines() if line.startswith("[")] == [
+        "unchanged", "unchanged", "failed", "unchanged"]
