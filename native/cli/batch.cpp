@@ -113,7 +113,7 @@ private:
         if (!current_.empty() && done_ < total_) {
             char pct[16];
             std::snprintf(pct, sizeof pct, " %d%%", int(fraction_ * 100 + 0.5));
-            now = " " + io::printable(current_) + ": " + stage_ + (fraction_ > 0 ? pct : "");
+            now = " " + io::printable(current_) + ": " + stage_ + (fraction_ > 0 && stage_ != "writing" ? pct : "");
         }
         std::string line = bar + " " + std::to_string(done_) + "/" + std::to_string(total_) + now + rate + " | " + eta +
                            " | " + clock_text(elapsed);
