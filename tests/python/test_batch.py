@@ -224,3 +224,22 @@ def test_progress_bar_on_a_terminal_and_lines_otherwise(lib):
     assert "\033" not in r.stdout + r.stderr and "\r" not in r.stdout + r.stderr
     assert [line.split("] ")[1].split()[0] for line in r.stdout.splitlines() if line.startswith("[")] == [
         "unchanged", "unchanged", "failed", "unchanged"]
+
+
+def test_a_signal_stops_the_batch_and_the_same_command_goes_on(tmp_path):
+    for k in range(40):
+        world(tmp_path / "w" / ("w%02d.exr" % k), k)
+    out = tmp_path / "out"
+    args = [CLI, "bake", str(tmp_path / "w"), "-o", str(out), *SMALL]
+    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = p.stdout.readline() + p.stdout.readline()  # "batch: 40 worlds", then the first world's line
+    assert "[1/40] baked w00" in first
+    p.send_signal(2)
+    rest, err = p.communicate(timeout=120)
+    assert p.returncode == 130, first + rest + err
+    assert "batch stopped (Interrupt)" in err
+    done = index(out)["worlds"]
+    assert 1 <= len(done) < 40 and all(w["status"] == "baked" for w in done)
+    assert not [n for n in os.listdir(str(out)) if n.startswith(".")]  # no staging folder left
+    r = cli(*args[1:])
+    assert r.returncode == 0 and "%d baked, %d unchanged" % (40 - len(done), len(done)) in r.stdout
