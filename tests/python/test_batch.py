@@ -243,3 +243,27 @@ def test_a_signal_stops_the_batch_and_the_same_command_goes_on(tmp_path):
     assert not [n for n in os.listdir(str(out)) if n.startswith(".")]  # no staging folder left
     r = cli(*args[1:])
     assert r.returncode == 0 and "%d baked, %d unchanged" % (40 - len(done), len(done)) in r.stdout
+
+
+def test_the_addons_batch_core_names_shards_and_indexes_as_the_cli(lib, tmp_path):
+    """core/batch.py (bake_world.py --batch without bpy): the CLI's worlds and
+    names, .blend files taken from folders too, a failure kept in the index."""
+    import sys
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "addon"))
+    from iblbake.core import batch
+    (lib / "lib" / "scene.blend").write_bytes(b"BLENDER-v300")
+    items = batch.worlds([str(lib / "lib"), str(lib / "x" / "forest.exr")], shard="0/1")
+    assert [w["name"] for w in items] == ["alpha", "beta", "broken", "my_world___", "scene", "forest"]
+    lines = []
+
+    def bake_one(world):
+        if world["name"] == "broken":
+            raise RuntimeError("cannot read it")
+        return ("unchanged" if world["name"] == "beta" else "baked"), "h-" + world["name"]
+    out = tmp_path / "addon-out"
+    entries = batch.run(items, str(out), bake_one, log=lines.append)
+    assert lines[2] == "[3/6] failed broken: cannot read it" and lines[1] == "[2/6] unchanged beta"
+    idx = index(out)
+    assert [(w["name"], w["status"], w["content_hash"]) for w in idx["worlds"]][:3] == [
+        ("alpha", "baked", "h-alpha"), ("beta", "unchanged", "h-beta"), ("broken", "failed", None)]
+    assert idx["worlds"][2]["error"] == "cannot read it" and len(entries) == 6

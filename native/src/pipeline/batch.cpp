@@ -10,6 +10,7 @@
 #include <map>
 #include <mutex>
 #include <new>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <system_error>
@@ -67,14 +68,12 @@ bool has_extension(const fs::path& p, const std::vector<std::string>& extensions
 
 std::vector<World> gather_worlds(const std::vector<std::string>& inputs, const std::vector<std::string>& extensions) {
     std::vector<World> worlds;
-    std::vector<std::string> seen;  // canonical paths
+    std::set<std::string> seen;  // canonical paths
     auto add = [&](const std::string& source) {
         std::error_code ec;
         fs::path key = fs::weakly_canonical(fs::absolute(source, ec), ec);
         if (ec) key = fs::path(source).lexically_normal();
-        if (std::find(seen.begin(), seen.end(), key.string()) != seen.end()) return;
-        seen.push_back(key.string());
-        worlds.push_back({source, ""});
+        if (seen.insert(key.string()).second) worlds.push_back({source, ""});
     };
     for (const std::string& input : inputs) {
         std::error_code ec;
