@@ -173,14 +173,11 @@ int run_batch(const std::vector<std::string>& sources, const std::string& outdir
     }
     if (inputs.empty()) throw std::invalid_argument("no sources: name files or folders, or give --list FILE");
     const std::vector<batch::World> all = batch::gather_worlds(inputs);
-    if (all.empty())
-        throw std::invalid_argument("no worlds to bake: the folders given hold no image files (" +
-                                    [] {
-                                        std::string e;
-                                        for (const std::string& x : batch::image_extensions()) e += (e.empty() ? "" : " ") + x;
-                                        return e;
-                                    }() +
-                                    ")");
+    if (all.empty()) {
+        std::string extensions;
+        for (const std::string& x : batch::image_extensions()) extensions += (extensions.empty() ? "" : " ") + x;
+        throw std::invalid_argument("no worlds to bake: the folders given hold no image files (" + extensions + ")");
+    }
     const std::vector<batch::World> worlds = batch::shard_worlds(all, shard);
 
     struct sigaction sa {};
@@ -190,10 +187,13 @@ int run_batch(const std::vector<std::string>& sources, const std::string& outdir
     sigaction(SIGTERM, &sa, nullptr);
 
     const bool tty = ::isatty(STDERR_FILENO) == 1;
-    if (!quiet)
-        std::printf("batch: %zu worlds%s -> %s%s\n", worlds.size(),
-                    shard.all() ? "" : (" (shard " + shard.text() + " of " + std::to_string(all.size()) + ")").c_str(),
-                    io::printable(outdir).c_str(), args.jobs > 1 ? (", " + std::to_string(args.jobs) + " at once").c_str() : "");
+    if (!quiet) {
+        const std::string of_shard =
+            shard.all() ? "" : " (shard " + shard.text() + " of " + std::to_string(all.size()) + ")";
+        const std::string at_once = args.jobs > 1 ? ", " + std::to_string(args.jobs) + " at once" : "";
+        std::printf("batch: %zu worlds%s -> %s%s\n", worlds.size(), of_shard.c_str(), io::printable(outdir).c_str(),
+                    at_once.c_str());
+    }
     std::fflush(stdout);
     Display display(worlds.size(), tty, quiet);
     batch::Events events;

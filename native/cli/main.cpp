@@ -161,7 +161,8 @@ int main(int argc, char** argv) {
         }
         BakeRequest request;
         apply_options(request, given, [](const OptionSpec& s) { return s.cli_flag(); });
-        if (sources.empty() && batch.lists.empty()) throw std::invalid_argument("source is required (see iblbake bake --help)");
+        if (sources.empty() && batch.lists.empty())
+            throw std::invalid_argument("source is required (see iblbake bake --help)");
         if (cli::is_batch(sources, batch)) {
             FileLutCache cache(cache_dir);
             return cli::run_batch(sources, outdir, request, batch, no_cache ? nullptr : &cache, quiet);

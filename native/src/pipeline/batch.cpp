@@ -133,16 +133,19 @@ void name_worlds(std::vector<World>& worlds) {
 std::string Shard::text() const { return std::to_string(index) + "/" + std::to_string(count); }
 
 Shard parse_shard(const std::string& text) {
-    const size_t slash = text.find('/');
-    auto number = [&](const std::string& part) {
-        if (part.empty() || part.size() > 6 || !std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; }))
-            throw std::invalid_argument("--shard must be I/N with 0 <= I < N (e.g. 0/4), got '" + io::printable(text) + "'");
+    const auto bad = [&] {
+        return std::invalid_argument("--shard must be I/N with 0 <= I < N (e.g. 0/4), got '" + io::printable(text) +
+                                     "'");
+    };
+    const auto number = [&](const std::string& part) {
+        const bool digits = std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; });
+        if (part.empty() || part.size() > 6 || !digits) throw bad();
         return std::stoi(part);
     };
-    if (slash == std::string::npos) number("");
-    Shard s{number(text.substr(0, slash)), number(text.substr(slash + 1))};
-    if (s.count < 1 || s.index >= s.count)
-        throw std::invalid_argument("--shard must be I/N with 0 <= I < N (e.g. 0/4), got '" + io::printable(text) + "'");
+    const size_t slash = text.find('/');
+    if (slash == std::string::npos) throw bad();
+    const Shard s{number(text.substr(0, slash)), number(text.substr(slash + 1))};
+    if (s.count < 1 || s.index >= s.count) throw bad();
     return s;
 }
 
@@ -260,7 +263,9 @@ std::string gallery(const std::vector<Entry>& entries, const json& counts) {
     for (const Entry* e : order) {
         const std::string name = html_escape(e->world.name);
         h << "<div class=\"w " << e->status << "\">";
-        if (e->preview) h << "<a href=\"" << name << "/preview.png\"><img loading=\"lazy\" src=\"" << name << "/preview.png\" alt=\"" << name << "\"></a>";
+        if (e->preview)
+            h << "<a href=\"" << name << "/preview.png\"><img loading=\"lazy\" src=\"" << name
+              << "/preview.png\" alt=\"" << name << "\"></a>";
         h << "<b>" << name << "</b> <span class=\"st\">" << e->status << "</span><br>"
           << html_escape(io::printable(e->world.source));
         if (!e->content_hash.empty()) h << "<br>hash " << e->content_hash.substr(0, 12);
