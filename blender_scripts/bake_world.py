@@ -221,6 +221,7 @@ def run_batch(args):
 def main(argv):
     load_addon()
     args = parse_args(argv)
+    args.out = os.path.expanduser(args.out)  # a quoted '~/x' is the user's folder, as the shell would have made it
     failures = []
     if args.batch is not None:
         failures = run_batch(args)

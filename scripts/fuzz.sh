@@ -31,7 +31,7 @@ CXX=clang++
 SAN=(-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g -O1)
 INC=(-Inative/include $(pkg-config --cflags OpenEXR libpng libjpeg OpenImageIO))
 SRCS=(native/src/io/image_io.cpp native/src/io/exr_file.cpp native/src/io/png_file.cpp native/src/io/jpeg_file.cpp
-      native/src/io/tiff_check.cpp native/src/io/text.cpp)
+      native/src/io/tiff_check.cpp native/src/io/text.cpp native/src/math/half.cpp native/src/image/image.cpp)
 echo "fuzz: building into $OUT"
 objs=()
 for s in "${SRCS[@]}" tests/fuzz/fuzz_read_image.cpp; do
@@ -42,7 +42,7 @@ done
 nice $CXX -std=c++17 "${SAN[@]}" -fsanitize=fuzzer-no-link -fPIC -shared "${INC[@]}" native/src/io/oiio_plugin.cpp \
   -o "$OUT/libiblbake_oiio.so" $(pkg-config --libs OpenImageIO)
 nice $CXX "${SAN[@]}" -fsanitize=fuzzer "${objs[@]}" -o "$OUT/fuzz_read_image" \
-  $(pkg-config --libs OpenEXR libpng libjpeg) -ldl -lpthread
+  $(pkg-config --libs OpenEXR libpng libjpeg) -ltbb -ldl -lpthread
 
 # Seeds: the corpus's inputs under 64 KiB (good files of every format, cuts, fuzzed headers, bombs).
 if [ -z "$(ls -A "$OUT/seeds")" ]; then

@@ -48,7 +48,7 @@ if bpy is not None and not _MISMATCH:
     if "operators" in locals():  # F8 / script reload: re-import the submodules
         import importlib
         # Each module after the ones it imports, so that it binds their new versions.
-        for _m in (core.native, core.options, core.settings, core.needs, core.world, core.describe,  # noqa: F821
+        for _m in (core.native, core.names, core.options, core.settings, core.needs, core.world, core.describe,  # noqa: F821
                    core.pipeline, core.job, compat, state, properties, world_reader, scene_needs, scene_settings,  # noqa: F821
                    operators, outputs, panel, preferences):  # noqa: F821
             importlib.reload(_m)

@@ -1,5 +1,7 @@
-"""The last bake's files on the desktop: Open Output Folder (the file manager)
-and Open Preview (the preview sheet in an Image Editor)."""
+"""The last bake's files on the desktop: Open Output Folder (the file manager),
+Open Preview (the preview sheet in an Image Editor) and Add Sun Lamp (the
+sun a bake with sun="split" found, as a Sun lamp)."""
+import math
 import os
 import shutil
 import subprocess
@@ -8,6 +10,7 @@ import sys
 import bpy
 
 from . import state
+from .core import describe
 from .core.pipeline import BakeError
 from .scene_settings import gather_settings
 
@@ -117,4 +120,66 @@ class IBLBAKE_OT_open_output(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (IBLBAKE_OT_open_output, IBLBAKE_OT_open_preview)
+SUN_LAMP = "IBL Sun"
+
+
+def last_sun(context, scene):
+    """The sun of the scene's last bake (the manifest's `sun`), else that of
+    the bake in its output folder; None when neither looked for one."""
+    sun = state.last(scene.name).sun
+    if sun is None:
+        try:
+            out = gather_settings(context, scene).out_dir
+        except (BakeError, ValueError):
+            return None
+        sun = (describe.manifest_of(out) or {}).get("sun")
+    return sun if isinstance(sun, dict) else None
+
+
+def add_sun_lamp(scene, sun, bake_dir=""):
+    """Creates (or updates) the Sun lamp "IBL Sun" in `scene` from sun.json's
+    content: its -Z along the light (rotation from the direction), Strength =
+    E (W/m^2 is the lamp's irradiance: Strength x colour = E per channel),
+    Angle = the angular diameter, the colour. The lamp keeps the folder of the
+    sun-free bake it goes with (custom property "iblbake_bake"). Returns it."""
+    lamp = sun["blender"]
+    obj = bpy.data.objects.get(SUN_LAMP)
+    if obj is None or obj.type != "LIGHT" or obj.data.type != "SUN":
+        obj = bpy.data.objects.new(SUN_LAMP, bpy.data.lights.new(SUN_LAMP, type="SUN"))
+    if scene.collection.all_objects.get(obj.name) is None:
+        scene.collection.objects.link(obj)
+    light = obj.data
+    light.energy = float(lamp["strength"])
+    light.color = [float(c) for c in lamp["color"]]
+    light.angle = math.radians(float(lamp["angle_deg"]))
+    obj.rotation_mode = "XYZ"
+    obj.rotation_euler = [math.radians(float(a)) for a in lamp["rotation_euler_deg"]]
+    obj["iblbake_bake"] = bake_dir or ""
+    return obj
+
+
+class IBLBAKE_OT_add_sun_lamp(bpy.types.Operator):
+    """Add (or update) a Sun lamp with the sun the last bake took out of the world: its direction, Strength = its illuminance, Angle = its diameter, its colour"""
+    bl_idname = "iblbake.add_sun_lamp"
+    bl_label = "Add Sun Lamp"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None:
+            return False
+        sun = last_sun(context, context.scene)
+        return bool(sun and sun.get("found"))
+
+    def execute(self, context):
+        scene = context.scene
+        sun = last_sun(context, scene)
+        if not (sun and sun.get("found")):
+            self.report({"ERROR"}, "iblbake: no sun: bake with Sun: Split first (or the world has none)")
+            return {"CANCELLED"}
+        obj = add_sun_lamp(scene, sun, state.last(scene.name).out_dir)
+        self.report({"INFO"}, "iblbake: %s: %s" % (obj.name, describe.sun_sentence(sun)))
+        return {"FINISHED"}
+
+
+classes = (IBLBAKE_OT_open_output, IBLBAKE_OT_open_preview, IBLBAKE_OT_add_sun_lamp)

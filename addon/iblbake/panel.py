@@ -100,6 +100,11 @@ def _draw_last(layout, context, last):
         col = layout.column(align=True)
         for i, line in enumerate(_wrap(last.status, _max_chars(context))):
             col.label(text=line, icon=STATUS_ICONS.get(last.kind, "INFO") if i == 0 else "BLANK1")
+    sun_line = describe.sun_sentence(last.sun)
+    if sun_line:
+        layout.label(text=sun_line, icon="LIGHT_SUN")
+        if last.sun.get("found"):
+            layout.operator(outputs.IBLBAKE_OT_add_sun_lamp.bl_idname, icon="LIGHT_SUN")
     if last.files:
         box = layout.box()
         col = box.column(align=True)
@@ -245,7 +250,11 @@ class IBLBAKE_PT_world(bpy.types.Panel):
                 col.label(text=part, icon="INFO" if i == 0 else "BLANK1")
         row = box.row(align=True)
         for name in options.SCENE_OUTPUTS:
-            row.prop(props, name, toggle=True)
+            if name != "sun":
+                row.prop(props, name, toggle=True)
+        row = box.row(align=True)  # the sun as a light (issue 27): Off | Split
+        row.label(text="Sun")
+        row.prop(props, "sun", expand=True)
         draw_engines(box, options_of(context, scene))
 
         layout.prop(props, "use_scene_options")

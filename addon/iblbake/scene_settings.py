@@ -3,11 +3,11 @@ preferences' defaults (or the scene's own options) and the scene's choices
 as one core.settings.BakeSettings, the output folder resolved, and what the
 scene's materials need."""
 import os
-import re
 
 import bpy
 
 from . import scene_needs
+from .core import names
 from .core.needs import needs_from_lobes
 from .core.pipeline import BakeError
 from .core.settings import BakeSettings
@@ -32,17 +32,13 @@ def options_of(context, scene):
     return scene.iblbake if (scene.iblbake.use_scene_options or prefs is None) else prefs
 
 
-def _safe(name: str) -> str:
-    """A name as one path component: never empty, never "." or ".."."""
-    s = re.sub(r"[^\w.-]+", "_", name).strip("_")
-    return "untitled" if s.strip(".") == "" else s
-
-
 def resolve_output_dir(scene, template: str) -> str:
     blend = bpy.data.filepath
-    text = template.replace("{blend}", _safe(os.path.splitext(os.path.basename(blend))[0] if blend else "untitled"))
-    text = text.replace("{scene}", _safe(scene.name))
-    text = text.replace("{world}", _safe(scene.world.name if scene.world else "no_world"))
+    try:
+        text = names.fill_template(template, os.path.splitext(os.path.basename(blend))[0] if blend else "untitled",
+                                   scene.name, scene.world.name if scene.world else "no_world")
+    except names.TemplateError as e:
+        raise BakeError(str(e))
     if text.startswith("//") and not blend:
         raise BakeError("the output folder %r is relative to the .blend file, which is not saved yet: "
                         "save the file, or choose an absolute folder" % template)

@@ -34,6 +34,7 @@ class Last:
     preview: str = ""              # preview.png's path, when the bake wrote one
     thumbnail: object = None       # its small sRGB RGBA copy for the panel (describe.thumbnail), or None
     stages: List[Tuple[str, float]] = field(default_factory=list)  # what the user waited for, in seconds
+    sun: Optional[dict] = None     # the manifest's `sun` (a bake with sun="split"), else None
 
 
 RUN: Optional[Run] = None
@@ -57,11 +58,12 @@ def set_baked(scene_name: str, report, stages=()):
     """A bake's result (a core.pipeline.BakeReport): its files, for the panel."""
     files, total = describe.bake_files(report.out_dir)
     preview = os.path.join(report.out_dir, "preview.png")
+    manifest = report.manifest or describe.manifest_of(report.out_dir) or {}
     set_last(scene_name, Last(
         status=report.summary(), kind="INFO", out_dir=report.out_dir, content_hash=report.content_hash,
         outcome=report.status,
         files=files, total_bytes=total, preview=preview if os.path.isfile(preview) else "",
-        thumbnail=report.thumbnail, stages=list(stages)))
+        thumbnail=report.thumbnail, stages=list(stages), sun=manifest.get("sun")))
     redraw()
 
 

@@ -68,10 +68,21 @@ def _constant(sock):
     return not sock.is_linked
 
 
-def classify(world, check_image: bool = False) -> WorldSource:
+def classify(world, check_image: bool = False, frame: int = None) -> WorldSource:
     """What the node tree is, without reading pixels or rendering. With
     check_image (the bake does this; a panel's draw need not load the file),
-    an Environment Texture whose image Blender cannot load raises WorldError."""
+    an Environment Texture whose image Blender cannot load raises WorldError.
+    Every image the world's output uses must have pixels at `frame` (the
+    scene's current frame by default): Cycles would render a missing one as
+    its magenta (WorldError). Drivers Blender did not run are noted."""
+    src = _classify(world, check_image)
+    if world is not None and uses_nodes(world):
+        check_world_images(world, bpy.context.scene.frame_current if frame is None else frame)
+    src.drivers = failed_drivers(world)
+    return src
+
+
+def _classify(world, check_image: bool) -> WorldSource:
     name = world.name if world else None
     if world is None:
         raise WorldError(NO_WORLD)
@@ -126,6 +137,116 @@ def classify(world, check_image: bool = False) -> WorldSource:
     except ValueError as e:
         return WorldSource(RENDER, str(e), world=name)
     return src
+
+
+def _used_nodes(tree, seen=None):
+    """The nodes whose output reaches the tree's active output (or a group's
+    Group Output), through node groups: (node, tree) pairs."""
+    seen = set() if seen is None else seen
+    if tree is None or tree.as_pointer() in seen:
+        return []
+    seen.add(tree.as_pointer())
+    outs = [n for n in tree.nodes if n.bl_idname in ("ShaderNodeOutputWorld", "NodeGroupOutput")]
+    world_out = _active_output(tree)
+    if world_out is not None:
+        outs = [world_out]
+    found, stack, visited = [], list(outs), set()
+    while stack:
+        node = stack.pop()
+        if node.as_pointer() in visited or node.mute:
+            continue
+        visited.add(node.as_pointer())
+        found.append(node)
+        if node.bl_idname == "ShaderNodeGroup":
+            found += _used_nodes(node.node_tree, seen)
+        for sock in node.inputs:
+            for link in sock.links:
+                if link.is_valid and not link.is_muted:
+                    stack.append(link.from_node)
+    return found
+
+
+def _frame_file(img, user, frame: int) -> str:
+    """The file an image sequence shows at `frame` (Blender's numbering: the
+    last run of digits in the file name, at its width)."""
+    length = max(1, user.frame_duration)
+    f = frame - user.frame_start + 1
+    if user.use_cyclic:
+        f = f % length or length
+    else:
+        f = min(max(f, 1), length)
+    number = f + user.frame_offset
+    path = os.path.abspath(bpy.path.abspath(img.filepath, library=img.library))
+    head, tail = os.path.split(path)
+    m = re.search(r"(\d+)(?!.*\d)", tail)
+    if not m:
+        return path
+    return os.path.join(head, tail[:m.start()] + str(number).zfill(len(m.group(1))) + tail[m.end():])
+
+
+def _missing_pixels(node, img, frame: int) -> str:
+    """Why an image node has no pixels at `frame` ('' when it has them)."""
+    if img.packed_file is not None or img.source in ("GENERATED", "VIEWER"):
+        return ""
+    path = os.path.abspath(bpy.path.abspath(img.filepath, library=img.library)) if img.filepath else ""
+    if img.source == "TILED":
+        if node.bl_idname == "ShaderNodeTexEnvironment":
+            return "it is a UDIM (tiled) image, which an Environment Texture cannot show (Cycles renders it as " \
+                   "the missing-texture magenta): use a single image"
+        missing = [t.number for t in img.tiles if not os.path.isfile(path.replace("<UDIM>", str(t.number)))]
+        return "no file for its UDIM tile%s %s" % ("s" if len(missing) > 1 else "", ", ".join(map(str, missing))) \
+            if missing else ""
+    if img.source == "SEQUENCE":
+        want = _frame_file(img, node.image_user, frame)
+        return "" if os.path.isfile(want) else "its image sequence has no file for frame %d (%s)" % (frame, want)
+    if img.source in ("FILE", "MOVIE"):
+        return _unreadable_cheap(img)
+    return ""
+
+
+def check_world_images(world, frame: int):
+    """Raises WorldError naming the first image the world's output uses that
+    has no pixels at `frame` (a missing file, a frame a sequence lacks, a UDIM
+    image in an Environment Texture), node groups included."""
+    for node in _used_nodes(world.node_tree):
+        if node.bl_idname not in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment") or node.image is None:
+            continue
+        why = _missing_pixels(node, node.image, frame)
+        if why:
+            raise WorldError("the world's image '%s' (node '%s') cannot be shown: %s"
+                             % (node.image.name, node.name, why))
+
+
+def failed_drivers(world) -> list:
+    """Warnings for the world's drivers that Blender did not run: invalid ones,
+    and Python expressions where script auto-execution is off (headless
+    Blender without --enable-autoexec): their properties keep stored values."""
+    if world is None:
+        return []
+    autoexec = bool(bpy.context.preferences.filepaths.use_scripts_auto_execute) and not bpy.app.autoexec_fail
+    out = []
+    for owner, label in ((world, "world"), (getattr(world, "node_tree", None), "world's nodes")):
+        anim = getattr(owner, "animation_data", None) if owner is not None else None
+        for fc in (anim.drivers if anim is not None else []):
+            d = fc.driver
+            python = d.type == "SCRIPTED" and not getattr(d, "is_simple_expression", False)
+            if not d.is_valid or (python and not autoexec):
+                why = "Python drivers are off in this Blender (auto-run scripts; blender --enable-autoexec)" \
+                    if python and not autoexec else "it is invalid"
+                out.append("the driver on %s (%r) did not run: %s; its stored value is baked"
+                           % (_driven(owner, label, fc.data_path), d.expression, why))
+    return out
+
+
+def _driven(owner, label: str, data_path: str) -> str:
+    """What a driver drives, as the UI names it: "the Background node's Strength"."""
+    if data_path.endswith(".default_value"):
+        try:
+            sock = owner.path_resolve(data_path[:-len(".default_value")])
+            return "the %s node's %s" % (sock.node.name, sock.name)
+        except (ValueError, AttributeError):
+            pass
+    return "the %s %s" % (label, data_path)
 
 
 def _unreadable_cheap(img):
@@ -187,6 +308,9 @@ def _mapping(vector_sock):
         if sock.is_linked:
             return None, "the Mapping node's %s is linked" % key
         vals[key] = tuple(float(v) for v in sock.default_value)
+        if not all(math.isfinite(v) for v in vals[key]):
+            raise WorldError("the world's Mapping node '%s' has a %s that is not a finite number (%s): set it to "
+                             "numbers" % (node.name, key, ", ".join("%g" % v for v in vals[key])))
     return Mapping(node.vector_type, vals["Location"], vals["Rotation"], vals["Scale"]), ""
 
 
@@ -327,6 +451,7 @@ def render_world(world, width: int, samples: int, frame: int = 1):
     path = os.path.join(tmp, "world.exr")
     try:
         notes = render_world_to_file(world, width, samples, frame, path)
+        check_not_magenta(path)
         return native.load().read_image(path), notes
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -344,6 +469,26 @@ def render_settings(scene, render_width: int, render_samples: int):
               "engine": "CYCLES", "camera": "panoramic equirectangular", "denoising": False,
               "pixel_filter": "box 1 px", "frame": scene.frame_current}
     return render, notes
+
+
+# Blender's missing-texture colour, (1, 0, 1) times whatever follows it.
+def magenta_share(pixels) -> float:
+    """The share of texels that are Blender's missing-texture magenta (red
+    equal to blue, no green)."""
+    px = np.asarray(pixels, dtype=np.float32).reshape(-1, 3)
+    r, g, b = px[:, 0], px[:, 1], px[:, 2]
+    magenta = (r > 1e-6) & (np.abs(r - b) <= 1e-3 * r) & (g <= 1e-3 * r)
+    return float(magenta.mean()) if len(px) else 0.0
+
+
+def check_not_magenta(path: str):
+    """Refuses a rendered lat-long that is mostly Blender's magenta: an image in
+    the world had no pixels (a check before the render missed it)."""
+    share = magenta_share(native.load().read_image(path))
+    if share > 0.5:
+        raise WorldError("Cycles rendered %d %% of the world as Blender's missing-texture magenta: an image in the "
+                         "world has no pixels (a missing file, frame or UDIM tile); fix the image and bake again"
+                         % round(100 * share))
 
 
 class ChildRender:
@@ -404,6 +549,7 @@ class ChildRender:
             tail = [ln for ln in self.lines if ln.strip()][-3:]
             raise WorldError("Cycles could not render the world (exit code %s): %s"
                              % (self.proc.returncode, " / ".join(tail) or "no output"))
+        check_not_magenta(self.exr)
         notes = []
         try:
             import json

@@ -67,6 +67,38 @@ extern "C" void request_stop(int sig) {
         ::_exit(128 + sig);
     }
 }
+
+// One line naming every exported file whose texels were clamped to its
+// pixel format's range (the manifest counts them per file); none when none were.
+// A list option's texts: each split at its commas, empty names kept (and
+// refused by the table's check); the presets' texts as given (parse_presets
+// splits them and refuses empty names itself).
+std::vector<std::string> split_lists(const iblbake::OptionSpec& spec, const std::vector<std::string>& texts) {
+    if (spec.open_choices) return texts;
+    std::vector<std::string> out;
+    for (const std::string& t : texts) {
+        const iblbake::OptionValue v = iblbake::parse_option_text(spec, t);
+        for (const std::string& item : std::get<std::vector<std::string>>(v)) out.push_back(item);
+    }
+    return out;
+}
+
+std::vector<std::string> clamp_notes(const nlohmann::json& m) {
+    std::string files;
+    uint64_t total = 0;
+    if (m.contains("presets"))
+        for (const auto& [name, entry] : m["presets"].items())
+            for (const auto& w : entry.value("written", nlohmann::json::array()))
+                if (w.value("clamped_texels", uint64_t(0)) > 0) {
+                    const uint64_t n = w["clamped_texels"].get<uint64_t>();
+                    total += n;
+                    files += (files.empty() ? "" : ", ") + name + "/" + w["file"].get<std::string>() + " (" +
+                             std::to_string(n) + ")";
+                }
+    if (!total) return {};
+    return {std::to_string(total) + " texels brighter than their pixel format holds were clamped to its largest "
+            "value: " + files + " (the manifest's clamped_texels)"};
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -112,7 +144,9 @@ int main(int argc, char** argv) {
         if (spec.kind == OptionKind::Bool) {
             opt = bake->add_flag(spec.cli_flag(), spec.cli_negated ? "do not " + spec.help : spec.help);
         } else if (spec.kind == OptionKind::List) {
-            opt = bake->add_option(spec.cli_flag(), lists[k], help)->delimiter(',');
+            // No CLI11 delimiter: it drops empty names ("three,,khronos"), which
+            // are refused (each given text is split below, or by parse_presets).
+            opt = bake->add_option(spec.cli_flag(), lists[k], help);
         } else {
             opt = bake->add_option(spec.cli_flag(), texts[k], help);
         }
@@ -156,7 +190,7 @@ int main(int argc, char** argv) {
             const OptionSpec& spec = row->spec;
             const size_t k = size_t(row - option_table().data());
             if (spec.kind == OptionKind::Bool) given.emplace_back(spec.name, !spec.cli_negated);
-            else if (spec.kind == OptionKind::List) given.emplace_back(spec.name, lists[k]);
+            else if (spec.kind == OptionKind::List) given.emplace_back(spec.name, split_lists(spec, lists[k]));
             else given.emplace_back(spec.name, parse_option_text(spec, texts[k]));
         }
         BakeRequest request;
@@ -184,6 +218,7 @@ int main(int argc, char** argv) {
         const nlohmann::json m = bake_file(source, outdir, plan, progress, no_cache ? nullptr : &cache);
         g_reading = false;
         for (const auto& w : m["warnings"]) std::cerr << "iblbake: warning: " << w.get<std::string>() << "\n";
+        for (const std::string& note : clamp_notes(m)) std::cerr << "iblbake: warning: " << note << "\n";
         if (!quiet) {
             const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
             const std::string kernel = m["specular_kernel"].is_string()
@@ -192,6 +227,13 @@ int main(int argc, char** argv) {
             std::printf("baked %s -> %s in %.3f s (reading included; %zu specular levels%s, bad pixels: %llu)\n",
                         io::printable(source).c_str(), io::printable(outdir).c_str(), wall, m["specular"].size(),
                         kernel.c_str(), (unsigned long long)m["bad_input"]["pixels"].get<uint64_t>());
+            if (m.contains("sun") && m["sun"].is_object()) {
+                const auto& sun = m["sun"];
+                if (sun["found"].get<bool>())
+                    std::printf("  sun       %s (sun.json, sun.gltf)\n", sun["why"].get<std::string>().c_str());
+                else
+                    std::printf("  sun       none: %s (sun.json)\n", sun["why"].get<std::string>().c_str());
+            }
             if (m.contains("presets"))
                 for (const auto& [name, entry] : m["presets"].items()) {
                     std::string files;

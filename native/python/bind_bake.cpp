@@ -15,6 +15,7 @@
 #include "bindings.h"
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/export/export.h"
+#include "iblbake/export/sun.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/output_dir.h"
 #include "iblbake/pipeline/bake_file.h"
@@ -57,8 +58,10 @@ nlohmann::json manifest_extra_json(const pybind11::handle& v) {
     } catch (const pybind11::error_already_set& e) {
         if (e.matches(PyExc_ValueError))
             value_error("manifest_extra: every number must be a finite number (JSON has no NaN or infinity)");
-        value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " +
-                    std::string(e.what()));
+        // The exception's own words, one line: e.what() carries a traceback.
+        std::string why = pybind11::str(e.value()).cast<std::string>();
+        std::replace(why.begin(), why.end(), '\n', ' ');
+        value_error("manifest_extra must hold JSON values only (dict, list, str, int, float, bool, None): " + why);
     }
     nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
     if (j.is_discarded()) value_error("manifest_extra is not valid JSON");
@@ -186,6 +189,7 @@ pybind11::dict result_dict(const BakeResult& r) {
     for (const auto& [k, v] : r.timings) timings[pybind11::str(k)] = v;
     d["timings"] = timings;
     d["hot_texels"] = r.hot_texels;
+    d["sun"] = r.sun ? json_to_py(sun_json(*r.sun)) : pybind11::none();
     return d;
 }
 
@@ -273,7 +277,8 @@ void bind_bake(pybind11::module_& m) {
 
 With out_dir, writes SPEC.md's files there atomically. Always returns a dict with
 'irradiance' (6, N, N, 3), 'specular' (list of (6, n, n, 3)), 'roughness', 'brdf_lut' (N, N, 3),
-'specular_levels', 'sh9' (3, 9), 'bad_input', 'timings' and 'manifest'. Options (keywords): every row of
+'specular_levels', 'sh9' (3, 9), 'bad_input', 'timings', 'sun' (with sun='split': sun.json's content, else None) and
+'manifest'. Options (keywords): every row of
 options() (face_size, formats, presets, ...: the CLI's options), and for this call: progress (callable(stage,
 fraction) -> bool; False cancels), source_path, source_sha256 (the manifest's hash, when the caller has it already;
 else a written bake hashes the file or the pixels, and an unwritten one leaves it null), lut_cache_dir (a folder

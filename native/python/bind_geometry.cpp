@@ -9,7 +9,9 @@
 
 #include "arrays.h"
 #include "bindings.h"
+#include "iblbake/export/sun.h"
 #include "iblbake/ibl/source.h"
+#include "iblbake/ibl/sun.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/cube.h"
 
@@ -94,6 +96,25 @@ void bind_geometry(pybind11::module_& m) {
         pybind11::arg("image"), pybind11::arg("matrix"), pybind11::arg("offset") = std::array<double, 3>{0, 0, 0},
         "The lat-long image (H, W, 3|4) seen through the lookup d -> matrix @ d + offset (Blender directions,\n"
         "matrix row-major, 9 numbers), as a Mapping node feeding an Environment Texture: (H, W, 3), bilinear.");
+    m.def(
+        "split_sun",
+        [](const pybind11::handle& image) {
+            const PixelArray pixels(image);
+            Image img = pixels.to_image();
+            SunSplit split;
+            {
+                pybind11::gil_scoped_release release;
+                sanitize(img);
+                split = split_sun(img);
+                apply_sun_split(img, split);
+            }
+            const std::string text = sun_json(split.light).dump();
+            return pybind11::make_tuple(image_array(img), pybind11::module_::import("json").attr("loads")(text));
+        },
+        pybind11::arg("image"),
+        "The sun as a light (issue 27; bake(sun='split') does the same inside a bake): (sun_free, sun) for a\n"
+        "lat-long (H, W, 3|4) array, cleaned as a bake cleans it; sun_free is (H, W, 3) with the sun's texels\n"
+        "replaced by the sky behind them, sun is sun.json's content (found, why, direction, ...).");
 }
 
 }  // namespace iblbake::py

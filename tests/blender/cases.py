@@ -383,6 +383,166 @@ def case_save_blend(args):
     return {"saved": True}
 
 
+def _world(name="hostile"):
+    world = bpy.data.worlds.new(name)
+    if not ALWAYS_NODES:
+        world.use_nodes = True
+    bpy.context.scene.world = world
+    return world, world.node_tree
+
+
+def _env_world(image_file=None, to_background=True):
+    """A world with an Environment Texture (of WORK/image_file, an orange field, when given), its Color
+    linked to the Background's unless told not to: (node tree, node)."""
+    _, nt = _world()
+    env = nt.nodes.new("ShaderNodeTexEnvironment")
+    if image_file:
+        orange = np.tile(np.float32([0.9, 0.3, 0.05]), (32, 64, 1))
+        env.image = bpy.data.images.load(save_exr(os.path.join(WORK, image_file), orange))
+    if to_background:
+        nt.links.new(env.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    return nt, env
+
+
+def case_save_hostile_world(args):
+    """Saves WORK/scene.blend whose world looks right but is not (issue 24):
+    kind = udim, udim_1001, sequence_gap, mix_missing, mapping_nan, srgb_float, driver_black, emoji_name."""
+    kind = args["kind"]
+    empty_scene()
+    if kind == "emoji_name":
+        _env_world("orange.exr")
+        bpy.context.scene.world.name = args.get("world_name", "\U0001F600\U0001F30D")
+    elif kind in ("udim", "udim_1001"):
+        nt, env = _env_world("tile.1001.exr" if kind == "udim_1001" else None)
+        img = bpy.data.images.new("tiles", 64, 32, float_buffer=True, tiled=True)
+        img.source = "TILED"
+        img.filepath = os.path.join(WORK, "tile.<UDIM>.exr")
+        env.image = img
+    elif kind == "sequence_gap":
+        nt, env = _env_world("seq.0001.exr")
+        env.image.source = "SEQUENCE"
+        env.image_user.frame_duration = 1
+        env.image_user.frame_start = 1
+        env.image_user.use_cyclic = False
+        env.image_user.frame_offset = 4  # frame 1 shows seq.0005.exr, which does not exist
+    elif kind == "mix_missing":
+        nt, env = _env_world("gone.exr", to_background=False)
+        mix = nt.nodes.new("ShaderNodeMixRGB")
+        mix.inputs["Fac"].default_value = 0.5
+        mix.inputs["Color2"].default_value = (0.1, 0.1, 0.1, 1)
+        nt.links.new(env.outputs["Color"], mix.inputs["Color1"])
+        nt.links.new(mix.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    elif kind == "mapping_nan":
+        nt, env = _env_world("orange.exr")
+        mapping, coords = nt.nodes.new("ShaderNodeMapping"), nt.nodes.new("ShaderNodeTexCoord")
+        mapping.name = "Sky Turn"
+        mapping.inputs["Rotation"].default_value = (0.0, 0.0, float("nan"))
+        nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+        nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    elif kind == "srgb_float":
+        value = float(args.get("value", 4.0))
+        world = image_world(save_exr(os.path.join(WORK, "bright.exr"), np.full((32, 64, 3), value, np.float32)))
+        world.node_tree.nodes["Environment Texture"].image.colorspace_settings.name = "sRGB"
+    elif kind == "driver_black":
+        world, nt = _world()
+        bg = nt.nodes["Background"]
+        bg.inputs["Strength"].default_value = 0.0
+        fc = bg.inputs["Strength"].driver_add("default_value")
+        fc.driver.type = "SCRIPTED"
+        fc.driver.expression = "__import__('math').sqrt(4.0) / 2"  # a Python expression, not a simple one
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(WORK, "scene.blend"))
+    if kind == "mix_missing":
+        os.remove(os.path.join(WORK, "gone.exr"))
+    return {"saved": True}
+
+
+def sun_checks(src, sun_free, sun):
+    """What test_addon.py checks of a split (numpy, texel-centre sums):
+    per channel the removed light's cosine integral at the light's direction
+    against sun.json's E, and the brightest sun-free texel within one
+    diameter against the brightest 1 to 3 diameters away (luminance)."""
+    h, w = src.shape[:2]
+    lat = (0.5 - (np.arange(h) + 0.5) / h) * np.pi
+    phi = (0.5 - (np.arange(w) + 0.5) / w) * 2 * np.pi
+    d = np.stack([np.cos(lat)[:, None] * np.cos(phi)[None, :], np.cos(lat)[:, None] * np.sin(phi)[None, :],
+                  np.repeat(np.sin(lat)[:, None], w, 1)], -1)
+    omega = (2 * np.pi / w) * (np.sin(np.pi / 2 - np.pi * np.arange(h) / h) - np.sin(np.pi / 2 - np.pi * (np.arange(h) + 1) / h))
+    out = {"texels_changed": int(np.count_nonzero(np.any(src[..., :3] != sun_free, -1)))}
+    if not sun.get("found"):
+        return out
+    cosd = np.clip(d @ np.asarray(sun["direction"]), 0, None)
+    removed = ((src[..., :3].astype(np.float64) - sun_free) * (cosd * omega[:, None])[..., None]).sum((0, 1))
+    out["removed_cosine"] = removed.tolist()
+    ang = np.degrees(np.arccos(np.clip(d @ np.asarray(sun["direction"]), -1, 1)))
+    dia = max(sun["angular_diameter_deg"], 180.0 / h)
+    lum = sun_free @ np.array([0.2126, 0.7152, 0.0722])
+    out["inner_max"] = float(lum[ang < dia].max())
+    out["ring_max"] = float(lum[(ang >= dia) & (ang <= 3 * dia)].max())
+    out["negative"] = int(np.count_nonzero(sun_free < 0))
+    return out
+
+
+def nishita_world(disc):
+    world = bpy.data.worlds.new("nishita %s" % disc)
+    if not ALWAYS_NODES:
+        world.use_nodes = True
+    sky = world.node_tree.nodes.new("ShaderNodeTexSky")
+    sky.sky_type = "NISHITA" if "NISHITA" in {e.identifier for e in
+                                              bpy.types.ShaderNodeTexSky.bl_rna.properties["sky_type"].enum_items} \
+        else "MULTIPLE_SCATTERING"
+    sky.sun_disc = disc
+    world.node_tree.links.new(sky.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
+    return world
+
+
+def case_sun_nishita(args):
+    """A Nishita sky (every setting at its default: the sun 15 degrees up),
+    with and without its sun disc, rendered by Cycles as the add-on renders
+    a world (1024 x 512, 16 samples; cached in CACHE, it takes half a minute
+    here), then split (iblbake_core.split_sun)."""
+    core = native.load()
+    cache = args["cache"]
+    os.makedirs(cache, exist_ok=True)
+    res = {}
+    for disc in (True, False):
+        path = os.path.join(cache, "nishita_1024_16_%s_%s.exr" % ("disc" if disc else "nodisc",
+                                                                  "_".join(map(str, bpy.app.version))))
+        if not os.path.isfile(path):
+            pixels, _ = world_reader.render_world(nishita_world(disc), 1024, 16)
+            core.write_exr(path + ".tmp.exr", np.ascontiguousarray(pixels, dtype=np.float32))
+            os.replace(path + ".tmp.exr", path)
+        src = core.read_image(path)
+        sun_free, sun = core.split_sun(src)
+        res["disc" if disc else "nodisc"] = {"sun": sun, "checks": sun_checks(src, sun_free, sun), "path": path}
+    return res
+
+
+def case_sun_lamp(args):
+    """sunset.exr as the world, baked with Sun: Split; the panel's sentence;
+    Add Sun Lamp, twice (the second updates the first); the lamp as made."""
+    scene = empty_scene()
+    image_world(args["hdri"])
+    res = bake(os.path.join(WORK, "out"), sun="split", auto_skip=False, mip_count=2, lut=False)
+    from iblbake import outputs, state
+    from iblbake.core import describe
+    sun = state.last(scene.name).sun
+    res["sun"] = sun
+    res["sentence"] = describe.sun_sentence(sun)
+    res["poll"] = bpy.ops.iblbake.add_sun_lamp.poll()
+    res["ops"] = [sorted(bpy.ops.iblbake.add_sun_lamp()), sorted(bpy.ops.iblbake.add_sun_lamp())]
+    lamps = [o for o in scene.objects if o.type == "LIGHT"]
+    res["lamps"] = len(lamps)
+    obj = bpy.data.objects[outputs.SUN_LAMP]
+    minus_z = obj.matrix_world.to_3x3() @ mathutils.Vector((0, 0, -1))
+    res["lamp"] = {"type": obj.data.type, "energy": obj.data.energy, "color": list(obj.data.color),
+                   "angle_deg": math.degrees(obj.data.angle), "shines_along": list(minus_z),
+                   "bake": obj.get("iblbake_bake")}
+    # A bake without the split: the panel says nothing of a sun, and no lamp can be added.
+    res["off"] = bake(os.path.join(WORK, "off"), sun="off")
+    res["off_sentence"] = describe.sun_sentence(state.last(scene.name).sun)
+    return res
+
+
 CASES = {name[5:]: fn for name, fn in list(globals().items()) if name.startswith("case_")}
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@
 import fs from 'node:fs';
 import path from 'node:path';
 import { run, b64ToF32, fmt } from './lib/harness.mjs';
-import { normalize, mirrorLevel, sampleLevel, sampleLod, halfToFloat, CURVES, SH_MIRROR_NEGATE } from './lib/cube.mjs';
+import { normalize, dot, mirrorLevel, sampleLevel, sampleLod, halfToFloat, CURVES, SH_MIRROR_NEGATE } from './lib/cube.mjs';
 import { readKtx2File, packKtx2 } from './lib/ktx2pack.mjs';
 import { readCross } from './lib/exr.mjs';
 import { reflect, mix, pixelNormal, rgbAt, writeSheet, relDiff } from './lib/sphere.mjs';
@@ -199,7 +199,95 @@ await run('three', async (s) => {
   }
   s.expectFail('exact values on an export with linear r_m', { pass: linFails === 0, message: `${linFails} of ${T - 1} inner levels fail (${linMsgs.join(', ')})` });
 
-  // 6. Contact sheet: our bake (top) beside three's own PMREM (bottom).
+  // 6. The sun as a light (issue 27): a white diffuse sphere lit by the
+  //    sun-free three preset plus the light from sun.gltf renders as one lit
+  //    by the original environment alone, within 1 %.
+  const sunOrig = bakes.other('sun', 'sun.exr'), sunSplit = bakes.other('sun_split', 'sun.exr');
+  const matte = { roughness: 1, metalness: 0, specularIntensity: 0 };
+  await setKtx2(path.join(sunOrig.dir, sunOrig.manifest.presets.three.dir, sunOrig.manifest.presets.three.files.specular));
+  const withSun = await render(matte);
+  const splitPre = sunSplit.manifest.presets.three;
+  await setKtx2(path.join(sunSplit.dir, splitPre.dir, splitPre.files.specular));
+  const noSun = await render(matte);
+  const gltfUrl = s.dataUrl(path.join(sunSplit.dir, sunSplit.manifest.sun.files.gltf));
+  const loadedSun = await page.evaluate((u) => iblTest.setSun({ url: u }), gltfUrl);
+  const want = splitPre.sun.direction;
+  const dirErr = Math.acos(Math.min(1, loadedSun.direction.reduce((a, v, k) => a + v * want[k], 0))) * 180 / Math.PI;
+  s.expect('sun.gltf: GLTFLoader gives one DirectionalLight along the three preset\'s sun direction, colour x intensity = E', {
+    pass: loadedSun.lights === 1 && dirErr < 1e-3 &&
+          loadedSun.color.every((c, k) => Math.abs(c * loadedSun.intensity - sunSplit.manifest.sun.illuminance[k]) <= 1e-4 * sunSplit.manifest.sun.illuminance[k]),
+    message: `${loadedSun.lights} light(s), direction ${fmt(loadedSun.direction)} (off the preset's by ${fmt(dirErr)} deg), ` +
+             `colour ${fmt(loadedSun.color)} x intensity ${fmt(loadedSun.intensity)} vs E ${fmt(sunSplit.manifest.sun.illuminance)}`,
+  });
+  const lit = await render(matte);
+  // Away from the sun's terminator (|N.d| >= 0.1, about one texel of the
+  // 16 px level T on either side) the two renders agree within 1 %. Along
+  // it the original's level T cannot hold the kink of max(0, N.d) (a 16 px
+  // cube interpolates across it), and the light does: there the split is
+  // measured against the exact irradiance (the smooth sky's closed form plus
+  // the disc's own cosine integral) and must be at least as close as the
+  // original environment.
+  const sunDesc = sunSplit.sources.sun, D = normalize(sunDesc.direction), rad = sunDesc.radius_deg * Math.PI / 180;
+  const band = 0.1;
+  const sameAsOriginal = (px, nearToo = false) => valueCheck(px, S, (x, y, N) =>
+    (nearToo || Math.abs(dot(N, D)) >= band ? rgbAt(withSun, S, x, y).slice(0, 3) : null),
+  { centreTol: 0.01, p99Tol: 0.01, minNV: 0.05 });
+  const sunCheck = sameAsOriginal(lit);
+  sunCheck.message += ` (pixels with N.V >= 0.05 and |N.d| >= ${band})`;
+  s.expect('sun: sun-free three preset + sun.gltf = the original environment alone (white diffuse sphere, 1 %)', sunCheck);
+  const [t1, t2] = (() => { const a = Math.abs(D[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0]; const t = normalize([a[1] * D[2] - a[2] * D[1], a[2] * D[0] - a[0] * D[2], a[0] * D[1] - a[1] * D[0]]); return [t, [D[1] * t[2] - D[2] * t[1], D[2] * t[0] - D[0] * t[2], D[0] * t[1] - D[1] * t[0]]]; })();
+  const discIrr = (N) => {  // (1/pi) integral over the disc of L max(0, N.w) dw, polar midpoint rule
+    let sum = 0;
+    const nr = 24, np = 48;
+    for (let i = 0; i < nr; i++) {
+      const th = (i + 0.5) * rad / nr, st = Math.sin(th), ct = Math.cos(th);
+      for (let k = 0; k < np; k++) {
+        const ph = (k + 0.5) * 2 * Math.PI / np, cp = Math.cos(ph) * st, sp = Math.sin(ph) * st;
+        const w = [0, 1, 2].map((q) => D[q] * ct + t1[q] * cp + t2[q] * sp);
+        sum += Math.max(0, dot(N, w)) * st;
+      }
+    }
+    const f = sum * (rad / nr) * (2 * Math.PI / np) / Math.PI;
+    return sunDesc.radiance.map((l) => l * f);
+  };
+  let farSplit = { d: 0 }, farOrig = { d: 0 };
+  for (let y = 0; y < S; y++) for (let x = 0; x < S; x++) {
+    const N = pixelNormal(S, x, y);
+    if (!N || N[2] < 0.05 || Math.abs(dot(N, D)) < band) continue;
+    const sky = smoothIrradiance(sunSplit.sources, N), disc = discIrr(N);
+    const exact = sky.map((v, k) => v + disc[k]);
+    const a = relDiff(rgbAt(lit, S, x, y), exact), b = relDiff(rgbAt(withSun, S, x, y), exact);
+    if (a > farSplit.d) farSplit = { d: a, x, y, N };
+    if (b > farOrig.d) farOrig = { d: b, x, y, N };
+  }
+  s.expect('sun: away from the terminator the split is within 1 % of the exact irradiance at every pixel', {
+    pass: farSplit.d <= 0.01,
+    message: `largest error against the exact irradiance (the smooth sky's closed form + the disc's cosine integral): ` +
+             `sun-free preset + light ${fmt(farSplit.d)} at (${farSplit.x}, ${farSplit.y}); the original preset ${fmt(farOrig.d)} at (${farOrig.x}, ${farOrig.y})`,
+  });
+  let nearSplit = 0, nearOrig = 0, nearPx = 0;
+  for (let y = 0; y < S; y++) for (let x = 0; x < S; x++) {
+    const N = pixelNormal(S, x, y);
+    if (!N || N[2] < 0.05 || Math.abs(dot(N, D)) >= band) continue;
+    const sky = smoothIrradiance(sunSplit.sources, N), disc = discIrr(N);
+    const exact = sky.map((v, k) => v + disc[k]);
+    nearSplit = Math.max(nearSplit, relDiff(rgbAt(lit, S, x, y), exact));
+    nearOrig = Math.max(nearOrig, relDiff(rgbAt(withSun, S, x, y), exact));
+    nearPx++;
+  }
+  s.expect('sun: along the terminator the split is at least as close to the exact irradiance as the original', {
+    pass: nearPx > 100 && nearSplit <= nearOrig,
+    message: `${nearPx} px with |N.d| < ${band}: largest error against the exact irradiance ${fmt(nearSplit)} (sun-free preset + light) vs ${fmt(nearOrig)} (original preset)`,
+  });
+  s.metric('sun', { share: sunSplit.manifest.sun.irradiance_share, ...sunCheck.metrics, terminator: { pixels: nearPx, split: nearSplit, original: nearOrig },
+                    exact_away_from_terminator: { split: farSplit.d, original: farOrig.d },
+                    without_light: sameAsOriginal(noSun).metrics });
+  s.expectFail('the sun-free preset alone (no light)', sameAsOriginal(noSun, true));
+  await page.evaluate((u) => iblTest.setSun({ url: u, mirrorX: true }), gltfUrl);
+  s.expectFail('the light x-mirrored like the preset\'s cube storage', sameAsOriginal(await render(matte), true));
+  await page.evaluate(() => iblTest.setSun(null));
+
+  // 7. Contact sheet: our bake (top) beside three's own PMREM (bottom).
   const sheet = writeSheet(path.join(s.p.out, 'three_sheet.png'), [ours, theirs], S);
   console.log(`contact sheet: ${sheet} (top: iblbake three preset; bottom: three.js PMREMGenerator; r = ${roughness.map((r) => fmt(r, 3)).join(', ')})`);
 });

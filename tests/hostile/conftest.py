@@ -16,5 +16,6 @@ def pytest_terminal_summary(terminalreporter):
     s = dict(mod.STATS, peak_mb=round(mod.STATS["peak_kb"] / 1024, 1))
     terminalreporter.write_line(
         "hostile corpus: %(cases)d cases, %(errors)d clear one-line errors, %(baked)d bakes "
-        "(%(repairs_counted)d with counted repairs, %(warned)d with warnings), crashes %(crashes)d, NaN %(nan)d, "
-        "lost bakes %(lost_bakes)d, peak memory %(peak_mb)s MB (%(peak_case)s), skipped %(skipped)d" % s)
+        "(%(repairs_counted)d with counted repairs, %(warned)d with warnings), crashes %(crashes)d, hangs %(hangs)d, "
+        "NaN %(nan)d, lost files %(lost_bakes)d, wrong results at exit 0 %(wrong)d, peak memory %(peak_mb)s MB "
+        "(%(peak_case)s), skipped %(skipped)d" % s)

@@ -92,6 +92,109 @@ def hdr_bytes(width, height, rows=None) -> bytes:
     return head + bytes([128, 128, 128, 129]) * (width * n if width * n < 1 << 22 else 16)
 
 
+# --- issue 24: files that look right but aren't -------------------------------------------------------
+
+def _combined(prefix="ViewLayer.Combined.", rgba=(0.9, 0.3, 0.05, 1.0)):
+    return {prefix + c: v for c, v in zip("RGBA", rgba)}
+
+
+def _exr_of(values):
+    return lambda: exr_bytes(channels=tuple(values), values=values)
+
+
+# name -> bytes of a single-part EXR; the first three must bake orange (0.9, 0.3, 0.05), the rest be refused.
+LOOKS_RIGHT_EXR = {
+    # Blender's OpenEXR MultiLayer: Combined plus passes whose names sort before it.
+    "blender_multilayer": _exr_of({**_combined(), "ViewLayer.AO.R": 0.1, "ViewLayer.AO.G": 0.1, "ViewLayer.AO.B": 0.1,
+                                   "ViewLayer.Depth.Z": 1000.0}),
+    "layer_diffuse": _exr_of({"diffuse.R": 0.9, "diffuse.G": 0.3, "diffuse.B": 0.05}),
+    "lowercase_rgb": _exr_of({"r": 0.9, "g": 0.3, "b": 0.05}),
+    "alpha_only": _exr_of({"A": 1.0}),
+    "depth_only": _exr_of({"Z": 1000.0}),
+    "aov_only": _exr_of({"ViewLayer.MyAOV.V": 0.7}),
+    "z_and_depth": _exr_of({"Z": 1000.0, "depth.V": 3.0}),
+    "two_layers": _exr_of({**_combined("diffuse."), **_combined("specular.", (0.1, 0.1, 0.1, 1.0))}),
+}
+LOOKS_RIGHT_OK = {"blender_multilayer", "layer_diffuse", "lowercase_rgb"}
+
+
+def make_multipart_depth_first(path):
+    """Two parts: a depth pass (Z = 1000) first, the orange colour second."""
+    subprocess.run(["oiiotool", "--pattern", "constant:color=1000", "%dx%d" % (BASE_W, BASE_H), "1", "--chnames", "Z",
+                    "-d", "float", "--pattern", "constant:color=0.9,0.3,0.05", "%dx%d" % (BASE_W, BASE_H), "3",
+                    "-d", "float", "--siappend", "-o", path], check=True, capture_output=True)
+
+
+def exr_subsampled_bytes():
+    """An EXR whose channels are sampled every 2 x 2 pixels (the chlist's sampling fields)."""
+    d = exr_bytes()
+    i = d.index(b"channels\0chlist\0") + len(b"channels\0chlist\0") + 4
+    for c in (b"B", b"G", b"R"):
+        j = d.index(c + b"\0", i) + 2
+        d = d[:j + 8] + struct.pack("<ii", 2, 2) + d[j + 16:]
+    return d
+
+
+def make_deep_exr(path):
+    subprocess.run(["oiiotool", "--create", "%dx%d" % (BASE_W, BASE_H), "4", "--chnames", "R,G,B,Z", "-d", "float",
+                    "--deepen", "-o", path], check=True, capture_output=True)
+
+
+def make_gradient_exr(path, width, height):
+    with open(path, "wb") as f:
+        f.write(exr_bytes(width, height, value=0.5))
+
+
+# Radiance HDR resolution strings (H, W replaced by the sizes); each file shows the same image.
+HDR_ORIENTATIONS = {"flipped_y": "+Y H +X W", "mirrored_x": "-Y H -X W", "rotated_180": "+Y H -X W",
+                    "transposed": "+X W +Y H", "columns_top_down": "+X W -Y H", "columns_right_left": "-X W -Y H"}
+
+
+def hdr_oriented(resolution, width=BASE_W, height=BASE_H):
+    """A flat RGBE file whose displayed image is the gradient below, stored in `resolution`'s order."""
+    def texel(x, y):
+        return bytes([(x * 4 + 8) % 256, (y * 8 + 8) % 256, 100 + (x * y) % 100, 128])
+    first, second = resolution.split()[0:2], resolution.split()[2:4]
+    axes = {first[0][1]: first[0][0], second[0][1]: second[0][0]}  # axis -> sign
+    n = {"X": width, "Y": height}
+
+    def coords(axis, k):  # Radiance's +Y runs bottom to top; -X right to left
+        if axis == "Y":
+            return height - 1 - k if axes["Y"] == "+" else k
+        return width - 1 - k if axes["X"] == "-" else k
+    outer, inner = first[0][1], second[0][1]
+    body = bytearray()
+    for i in range(n[outer]):
+        for j in range(n[inner]):
+            x = coords("X", i if outer == "X" else j)
+            y = coords("Y", i if outer == "Y" else j)
+            body += texel(x, y)
+    res = resolution.replace("H", str(height)).replace("W", str(width))
+    return b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + res.encode() + b"\n" + bytes(body)
+
+
+def make_oriented_tiff(path, orientation):
+    """A float TIFF with EXIF Orientation `orientation`, stored 32 x 64 where that turns it (5 to 8)."""
+    size = "%dx%d" % ((BASE_H, BASE_W) if orientation >= 5 else (BASE_W, BASE_H))
+    subprocess.run(["oiiotool", "--pattern", "fill:topleft=0.1,0.2,0.4:topright=2,1.5,1:bottomleft=0.05,0.1,0.02:"
+                    "bottomright=0.3,0.2,0.1", size, "3", "-d", "float", "--orientation", str(orientation),
+                    "-o", path], check=True, capture_output=True)
+
+
+ALPHA_PNG_RGBA = (200, 100, 50, 128)
+# What Cycles renders for it (measured with Blender 3.4's Cycles): the stored colour times alpha, then decoded.
+ALPHA_PNG_RADIANCE = [((c * ALPHA_PNG_RGBA[3] / 255 / 255 + 0.055) / 1.055) ** 2.4 for c in ALPHA_PNG_RGBA[:3]]
+
+
+def make_alpha_png(path):
+    """An 8-bit sRGB RGBA PNG with straight alpha 128 over a constant colour (Cycles shows colour x alpha)."""
+    ihdr = struct.pack(">IIBBBBB", BASE_W, BASE_H, 8, 6, 0, 0, 0)
+    raw = b"".join(b"\0" + bytes(ALPHA_PNG_RGBA) * BASE_W for _ in range(BASE_H))
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + _png_chunk(b"IHDR", ihdr) + _png_chunk(b"IDAT", zlib.compress(raw)) +
+                _png_chunk(b"IEND", b""))
+
+
 # --- sources made by OpenImageIO (oiiotool), then cut and fuzzed ---------------------------------------
 
 GOOD = {
@@ -143,6 +246,8 @@ class Case:
     make: Optional[Callable[[str], None]] = None  # writes the input file at the given path
     expect: str = "any"            # "error": must fail; "ok": must bake; "any": either, checked
     reference: Optional[str] = None  # a truncation that bakes must bake like this good file
+    mean: Optional[List[float]] = None  # issue 24: the mean radiance a bake must have (a wrong result otherwise)
+    same_as: Optional[Callable[[str], None]] = None  # issue 24: writes a file whose bake's sh9 it must match
     note: str = ""
     args: List[str] = field(default_factory=list)  # extra CLI arguments
 
@@ -288,7 +393,9 @@ def cases() -> List[Case]:
         "odd_hdr_flat.hdr": hdr_bytes(64, 32),
     }
     for name, data in odd.items():
-        out.append(Case(name, "odd", _write(data), expect="ok" if name not in ("odd_foreign_channels.exr",) else "any"))
+        out.append(Case(name, "odd", _write(data),
+                        expect="error" if name in ("odd_foreign_channels.exr", "odd_alpha_only.exr") else "ok"))
+    out += issue24_cases()
     # Things that are not image files.
     out += [
         Case("notafile_empty.exr", "notafile", _write(b""), expect="error"),
@@ -320,14 +427,111 @@ def cases() -> List[Case]:
                  ["--eps", "nan"], ["--eps", "inf"], ["--exposure", "nan"], ["--rgbm-range", "0"],
                  ["--threads", "-1"], ["--hot-threshold", "nan"], ["--format", "tiff"], ["--lut-model", "x"],
                  ["--samples", "0", "--specular-method", "fis"], ["--face-size", "abc"], ["--bogus"],
-                 ["--max-hot", "-1"], ["--irradiance-size", "99999999999"]):
-        out.append(Case("opt_" + "_".join(a.strip("-") for a in args), "option", None, expect="error", args=args))
+                 ["--max-hot", "-1"], ["--irradiance-size", "99999999999"],
+                 # issue 24: contradictory or empty presets, and presets that would hold the mirror level alone
+                 ["--preset", "khronos:rgba32f:rgba16f"], ["--preset", "khronos:zstd:nozstd"], ["--preset", "khronos:"],
+                 ["--preset", ""], ["--preset", "three,,khronos"], ["--preset", "three"], ["--preset", "filament"]):
+        out.append(Case("opt_" + "_".join(a.strip("-") for a in args).replace(":", "_").replace(",", "_") or "empty",
+                        "option", None, expect="error", args=args))
     # Wrong arrays for iblbake_core.bake().
     for name in ARRAYS:
         out.append(Case("array_" + name, "array", None, expect="ok" if name in ARRAYS_OK else "error"))
     names = [c.name for c in out]
     assert len(names) == len(set(names)), "duplicate case names"
     return out
+
+
+ORANGE = [0.9, 0.3, 0.05]
+
+
+def _oiiotool_from(make_source, *args):
+    """A file made by oiiotool from the file `make_source` writes (a conversion; `args` before the input
+    (--iconfig) and after it)."""
+    def make(path):
+        tmp = path + ".src.png"
+        make_source(tmp)
+        pre = list(args[:3]) if args[:1] == ("--iconfig",) else []
+        subprocess.run(["oiiotool", *pre, tmp, *args[len(pre):], "-o", path], check=True, capture_output=True)
+        os.remove(tmp)
+    return make
+
+
+# EXIF's orientations as pixel operations on the stored image (ImageMagick's -auto-orient does the same;
+# OpenImageIO 2.4's --reorient swaps 5 and 7).
+EXIF_TURNS = {1: [], 2: ["--flop"], 3: ["--rotate180"], 4: ["--flip"], 5: ["--transpose"], 6: ["--rotate90"],
+              7: ["--transpose", "--rotate180"], 8: ["--rotate270"]}
+
+
+def reoriented_tiff(path, orientation):
+    """The image make_oriented_tiff(…, orientation) shows, as a float EXR without orientation."""
+    tmp = path + ".tif"
+    make_oriented_tiff(tmp, orientation)
+    subprocess.run(["oiiotool", tmp, *EXIF_TURNS[orientation], "-d", "float", "-o", path], check=True,
+                   capture_output=True)
+    os.remove(tmp)
+
+
+def _reoriented(orientation):
+    return lambda path: reoriented_tiff(path, orientation)
+
+
+def issue24_cases() -> List[Case]:
+    """Issue 24's families: files that look right but aren't (layer names,
+    multi-part, orientation, alpha, colour spaces), cache entries renamed,
+    truncated or replaced by FIFOs, output folders changed during a bake,
+    and Blender worlds with UDIM, sequences and missing images."""
+    out: List[Case] = []
+    for name, data in LOOKS_RIGHT_EXR.items():
+        ok = name in LOOKS_RIGHT_OK
+        out.append(Case("looks_%s.exr" % name, "looks_right", lambda p, d=data: _write(d())(p),
+                        expect="ok" if ok else "error", mean=ORANGE if ok else None))
+    out.append(Case("looks_multipart_depth_first.exr", "looks_right", make_multipart_depth_first, expect="ok",
+                    mean=ORANGE))
+    out.append(Case("looks_luminance_only.exr", "looks_right", _write(exr_bytes(channels=("Y",), value=0.5)),
+                    expect="ok", mean=[0.5, 0.5, 0.5]))
+    for name, res in sorted(HDR_ORIENTATIONS.items()):
+        out.append(Case("looks_hdr_%s.hdr" % name, "looks_right", _write(hdr_oriented(res)), expect="ok",
+                        same_as=_write(hdr_oriented("-Y H +X W"))))
+    for o in range(1, 9):
+        out.append(Case("looks_tiff_orientation_%d.tif" % o, "looks_right", lambda p, o=o: make_oriented_tiff(p, o),
+                        expect="ok", same_as=_reoriented(o)))
+    out.append(Case("looks_alpha_straight.png", "looks_right", make_alpha_png, expect="ok", mean=ALPHA_PNG_RADIANCE))
+    # Converted by oiiotool: Targa reading the PNG's alpha as stored (straight), as Targa keeps it; TIFF
+    # through OpenImageIO's own premultiplied path (it writes associated alpha). (OpenImageIO 2.4's WebP
+    # writer changes the colour under alpha, so no WebP is made here.)
+    for ext, extra in (("tif", []), ("tga", ["--iconfig", "oiio:UnassociatedAlpha", "1"])):
+        out.append(Case("looks_alpha_from_png.%s" % ext, "looks_right", _oiiotool_from(make_alpha_png, *extra),
+                        expect="ok", mean=ALPHA_PNG_RADIANCE))
+    out.append(Case("looks_alpha_premultiplied.exr", "looks_right",
+                    _write(exr_bytes(channels=("R", "G", "B", "A"), values={"R": 0.45, "G": 0.15, "B": 0.025,
+                                                                           "A": 0.5})),
+                    expect="ok", mean=[0.45, 0.15, 0.025]))
+    out.append(Case("looks_xyze.hdr", "looks_right",
+                    _write(hdr_bytes(BASE_W, BASE_H).replace(b"32-bit_rle_rgbe", b"32-bit_rle_xyze")), expect="error"))
+    out.append(Case("looks_subsampled.exr", "looks_right", _write(exr_subsampled_bytes()), expect="error"))
+    out.append(Case("looks_deep.exr", "looks_right", make_deep_exr, expect="error"))
+    out.append(Case("looks_dds_export.dds", "looks_right", _write(b"DDS " + struct.pack("<I", 124) + bytes(200)),
+                    expect="error"))
+    out.append(Case("looks_huge_for_rgbe.exr", "looks_right", _write(exr_bytes(value=3.0e38)), expect="ok",
+                    args=["--preset", "source"]))
+    for name in CACHE_CASES:
+        out.append(Case("cache_" + name, "cache", None, expect="ok"))
+    for name in DURING_CASES:
+        out.append(Case("during_" + name, "during", None, expect="ok" if name in DURING_OK else "error"))
+    for name in BLENDER_WORLDS:
+        out.append(Case("blender_" + name, "blender", None, expect="error" if name != "srgb_float" else "ok"))
+    return out
+
+
+# Cache entries after a good bake: how each is damaged (the bake must give the same files as without the cache).
+CACHE_CASES = ["lut_models_swapped", "enc_exr_png_swapped", "lut_truncated", "enc_truncated", "lut_fifo",
+               "enc_fifo", "lut_symlink", "lut_directory", "lut_renamed_from_other_size"]
+# The output folder while a bake runs: what happens to it once the staging folder exists.
+DURING_CASES = ["file_added_to_earlier_bake", "folder_made_at_path", "empty_folder_made_at_path",
+                "locked_staging_of_other_namespace", "earlier_bake_removed"]
+DURING_OK = {"empty_folder_made_at_path", "locked_staging_of_other_namespace", "earlier_bake_removed"}
+# tests/blender/cases.py's save_hostile_world kinds, baked by bake_world.py (Blender only).
+BLENDER_WORLDS = ["udim", "udim_1001", "sequence_gap", "mix_missing", "srgb_float"]
 
 
 FUZZ_IPTC_OVERREAD = (

@@ -32,7 +32,7 @@ IS_ROOT = os.geteuid() == 0
 
 CASES = corpus.cases()
 STATS = {"cases": 0, "errors": 0, "baked": 0, "repairs_counted": 0, "warned": 0, "crashes": 0, "nan": 0,
-         "lost_bakes": 0, "peak_kb": 0, "peak_case": "", "skipped": 0}
+         "lost_bakes": 0, "hangs": 0, "wrong": 0, "peak_kb": 0, "peak_case": "", "skipped": 0}
 
 
 @pytest.fixture(scope="session")
@@ -70,6 +70,7 @@ def run_measured(argv, timeout=120, env=None, preexec_fn=None, cwd=None):
             if pid:
                 break
             if time.monotonic() - start > timeout:
+                STATS["hangs"] += 1
                 p.kill()
                 pid, status, usage = os.wait4(p.pid, 0)
                 raise AssertionError("timed out after %d s: %s" % (timeout, argv))
@@ -183,14 +184,40 @@ def reference_sh9(work, good_name):
     return work["refs"][good_name]
 
 
-FILE_KINDS = ("good", "truncation", "fuzz", "bomb", "odd")
+FILE_KINDS = ("good", "truncation", "fuzz", "bomb", "odd", "looks_right")
+
+
+def wrong_result(case, ok):
+    """A bake that exited 0 with what it should not have baked (issue 24) is counted and fails."""
+    if not ok:
+        STATS["wrong"] += 1
+    return ok
 
 
 @pytest.mark.parametrize("case", [c for c in CASES if c.kind in FILE_KINDS], ids=lambda c: c.name)
 def test_file(case, work):
     src = os.path.join(work["dir"], case.name)
     case.make(src)
-    rc, m, err, _ = cli_case(case, work, src)
+    rc, m, err, parent = cli_case(case, work, src, case.args)
+    if rc == 0 and case.mean is not None:
+        import numpy as np
+        assert wrong_result(case, np.allclose(m["mean_radiance"], case.mean, rtol=0.02, atol=1e-6)), \
+            (m["mean_radiance"], case.mean, m["warnings"])
+    if rc == 0 and case.same_as is not None:
+        import numpy as np
+        ref = src + ".reference" + os.path.splitext(src)[1].replace(".tif", ".exr")
+        case.same_as(ref)
+        ref_out = src + ".reference.out"
+        r = subprocess.run([CLI, "bake", ref, "-o", ref_out, *SMALL, "--cache-dir", work["cache"], "-q"],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        with open(os.path.join(ref_out, "manifest.json")) as f:
+            want = json.load(f)["sh9"]
+        assert wrong_result(case, np.allclose(m["sh9"], want, rtol=1e-4, atol=1e-6)), "baked turned or mirrored"
+    if rc == 0 and "source" in case.args:  # RGBE's range: the brightest texels clamped, not written black
+        import iblbake_core as ib
+        hdr = ib.read_image(os.path.join(parent, "out", "source", "source.hdr"))
+        assert wrong_result(case, float(hdr.min()) > 1e38), "source.hdr holds black texels"
     if rc == 0 and case.reference:  # a cut file that bakes lost nothing
         import numpy as np
         np.testing.assert_allclose(m["sh9"], reference_sh9(work, case.reference), rtol=1e-5, atol=1e-7,
@@ -377,14 +404,196 @@ def test_array(case, work):
         assert m["bad_input"]["pixels"] > 0 or case.name == "array_rgba_nan_alpha"
 
 
+# --- issue 24: the LUT cache, the output folder during a bake, Blender worlds --------------------------
+
+FORMATS = ["--format", "exr,png"]
+
+
+def cli(*args, timeout=120):
+    rc, out, err, kb = run_measured([CLI, "bake", *args], timeout=timeout)
+    return rc, err
+
+
+def damage_cache(name, cache, work, d):
+    """Damages the cache entries a bake of the good source with both LUT models left."""
+    entries = sorted(os.listdir(cache))
+    luts = [os.path.join(cache, n) for n in entries if n.endswith(".lut")]
+    encs = [os.path.join(cache, n) for n in entries if n.endswith(".enc")]
+    karis = [p for p in luts if "-karis-" in p]
+
+    def swap(a, b):
+        os.rename(a, a + ".x")
+        os.rename(b, a)
+        os.rename(a + ".x", b)
+    if name == "lut_models_swapped":
+        swap(*luts)
+    elif name == "enc_exr_png_swapped":
+        by_table = {}
+        for p in encs:
+            by_table.setdefault(p.split("-exr-")[0].split("-png-")[0], []).append(p)
+        for pair in by_table.values():
+            if len(pair) == 2:
+                swap(*pair)
+    elif name in ("lut_truncated", "enc_truncated"):
+        for p in luts if name.startswith("lut") else encs:
+            os.truncate(p, os.path.getsize(p) // 2)
+    elif name in ("lut_fifo", "enc_fifo"):
+        for p in luts if name.startswith("lut") else encs:
+            os.remove(p)
+            os.mkfifo(p)
+    elif name == "lut_symlink":
+        os.remove(karis[0])
+        os.symlink([p for p in luts if p != karis[0]][0], karis[0])
+    elif name == "lut_directory":
+        os.remove(karis[0])
+        os.mkdir(karis[0])
+    elif name == "lut_renamed_from_other_size":
+        other = os.path.join(d, "other-cache")
+        small = SMALL[:SMALL.index("--lut-size")] + SMALL[SMALL.index("--lut-size") + 2:]
+        rc, err = cli(work["good"], "-o", os.path.join(d, "o32"), *small, "--lut-size", "32", "--cache-dir", other)
+        assert rc == 0, err
+        big = [n for n in os.listdir(other) if n.endswith(".lut") and "-karis-" in n][0]
+        os.remove(karis[0])
+        shutil.copy(os.path.join(other, big), karis[0])
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if c.kind == "cache"], ids=lambda c: c.name)
+def test_cache(case, work):
+    d = tempfile.mkdtemp(prefix="cache-", dir=work["dir"])
+    cache, ref, out = os.path.join(d, "cache"), os.path.join(d, "ref"), os.path.join(d, "out")
+    rc, err = cli(work["good"], "-o", ref, *SMALL, *FORMATS, "--no-cache")
+    assert rc == 0, err
+    for model in ("karis", "height-correlated"):
+        rc, err = cli(work["good"], "-o", os.path.join(d, model), *SMALL, *FORMATS, "--lut-model", model,
+                      "--cache-dir", cache)
+        assert rc == 0, err
+    damage_cache(case.name[len("cache_"):], cache, work, d)
+    rc, _, err, kb = run_measured([CLI, "bake", work["good"], "-o", out, *SMALL, *FORMATS, "--cache-dir", cache],
+                                  timeout=60)
+    record_peak(case.name, kb)
+    outcome(case, rc, err, out, None, d)
+    for name in ("brdf_lut.exr", "brdf_lut.png"):
+        with open(os.path.join(out, name), "rb") as a, open(os.path.join(ref, name), "rb") as b:
+            assert wrong_result(case, a.read() == b.read()), name + " differs from a bake without the cache"
+
+
+def slow_bake(work):
+    src = os.path.join(work["dir"], "slow.exr")
+    if not os.path.exists(src):
+        corpus.make_gradient_exr(src, 1024, 512)
+    return [src, "--face-size", "512", "--mips", "2", "--irradiance-size", "32", "--lut-size", "64", *FORMATS,
+            "--no-cache"]
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if c.kind == "during"], ids=lambda c: c.name)
+def test_output_changed_during_a_bake(case, work):
+    import fcntl
+    name = case.name[len("during_"):]
+    parent = tempfile.mkdtemp(prefix="during-", dir=work["dir"])
+    out = os.path.join(parent, "out")
+    if name in ("file_added_to_earlier_bake", "earlier_bake_removed"):
+        shutil.copytree(work["earlier"], out)
+    before = snapshot(out) if os.path.isdir(out) else None
+    mine = {}  # the user's files: path -> bytes, all kept
+    lock = None
+
+    def act():
+        if name == "file_added_to_earlier_bake":
+            mine[os.path.join(out, "notes.txt")] = b"notes"
+        elif name == "folder_made_at_path":
+            os.mkdir(out)
+            mine[os.path.join(out, "thesis.tex")] = b"mine"
+        elif name == "empty_folder_made_at_path":
+            os.mkdir(out)
+        elif name == "earlier_bake_removed":
+            shutil.rmtree(out)
+        for p, data in mine.items():
+            with open(p, "wb") as f:
+                f.write(data)
+    if name == "locked_staging_of_other_namespace":
+        dead = subprocess.Popen(["true"])
+        dead.wait()
+        staging = os.path.join(parent, ".other.iblbake-%d-0123abcd" % dead.pid)
+        os.mkdir(staging)
+        mine[os.path.join(staging, "specular_0.exr")] = b"half written"
+        act()
+        lock = os.open(staging, os.O_RDONLY | os.O_DIRECTORY)
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        argv = [CLI, "bake", work["good"], "-o", out, *SMALL, "--cache-dir", work["cache"]]
+    else:
+        argv = [CLI, "bake", *slow_bake(work)[:1], "-o", out, *slow_bake(work)[1:]]
+    try:
+        with tempfile.TemporaryFile() as errf:
+            p = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=errf)
+            if lock is None:
+                deadline = time.monotonic() + 60
+                while p.poll() is None and not any(".out.iblbake-" in n for n in os.listdir(parent)):
+                    assert time.monotonic() < deadline
+                    time.sleep(0.002)
+                acted_while_running = p.poll() is None
+                act()
+                assert acted_while_running, "the bake ended before the folder was changed"
+            try:
+                p.wait(timeout=300)
+            except subprocess.TimeoutExpired:
+                STATS["hangs"] += 1
+                p.kill()
+                raise
+            errf.seek(0)
+            err = errf.read().decode()
+    finally:
+        if lock is not None:
+            os.close(lock)
+    outcome(case, p.returncode, err, out, None, None)
+    lost = [q for q, data in mine.items() if not os.path.isfile(q) or open(q, "rb").read() != data]
+    if before is not None and p.returncode == 1:
+        now = snapshot(out)
+        lost += [k for k, v in before.items() if now.get(k) != v]
+    if lost:
+        STATS["lost_bakes"] += 1
+    assert not lost, lost
+    if p.returncode == 1:
+        assert not [n for n in os.listdir(parent) if ".out.iblbake-" in n]
+
+
+BLENDER_EXE = shutil.which("blender")
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if c.kind == "blender"], ids=lambda c: c.name)
+def test_blender_world(case, work):
+    if BLENDER_EXE is None:
+        STATS["skipped"] += 1
+        pytest.skip("no Blender")
+    kind = case.name[len("blender_"):]
+    d = tempfile.mkdtemp(prefix="blender-", dir=work["dir"])
+    env = dict(os.environ, IBLBAKE_CORE_DIR=os.path.dirname(__import__("iblbake_core").__file__),
+               IBLBAKE_CACHE_DIR=work["cache"])
+    cases_py = os.path.join(ROOT, "tests", "blender", "cases.py")
+    r = subprocess.run([BLENDER_EXE, "-b", "--factory-startup", "--python-exit-code", "1", "--python", cases_py, "--",
+                        "save_hostile_world", d, "kind=" + kind, "value=1000"], capture_output=True, text=True,
+                       env=env, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = os.path.join(d, "out")
+    rc, _, err, kb = run_measured([BLENDER_EXE, "-b", "--factory-startup", os.path.join(d, "scene.blend"), "--python",
+                                   os.path.join(ROOT, "blender_scripts", "bake_world.py"), "--", "--out", out,
+                                   *SMALL[:6]], timeout=600, env=env)
+    err = "\n".join(line for line in err.splitlines() if line.startswith("iblbake:"))
+    m = outcome(case, rc, err, out, None, None)
+    if m is not None and kind == "srgb_float":
+        # Cycles shows 1000 in sRGB as 1.39e7 (Blender's buffer of it held 40.5).
+        assert wrong_result(case, min(m["mean_radiance"]) > 1e7), m["mean_radiance"]
+
+
 def test_zz_summary():
     """Prints the counts (run last: pytest keeps file order)."""
     s = dict(STATS, peak_mb=round(STATS["peak_kb"] / 1024, 1))
     print("\nhostile corpus: %(cases)d cases, %(errors)d clear one-line errors, %(baked)d bakes "
-          "(%(repairs_counted)d with counted repairs, %(warned)d with warnings), crashes %(crashes)d, NaN %(nan)d, "
-          "lost bakes %(lost_bakes)d, peak memory %(peak_mb)s MB (%(peak_case)s), skipped %(skipped)d" % s)
+          "(%(repairs_counted)d with counted repairs, %(warned)d with warnings), crashes %(crashes)d, hangs %(hangs)d, "
+          "NaN %(nan)d, lost files %(lost_bakes)d, wrong results at exit 0 %(wrong)d, peak memory %(peak_mb)s MB "
+          "(%(peak_case)s), skipped %(skipped)d" % s)
     path = os.environ.get("IBLBAKE_CORPUS_REPORT")
     if path:
         with open(path, "w") as f:
             json.dump(s, f, indent=1)
     assert STATS["crashes"] == 0 and STATS["nan"] == 0 and STATS["lost_bakes"] == 0
+    assert STATS["hangs"] == 0 and STATS["wrong"] == 0

@@ -168,7 +168,17 @@ TEST(Presets, ParseModifiersAndErrors) {
     EXPECT_NE(message([] { parse_preset("threejs"); }).find("expected one of three, khronos"), std::string::npos);
     EXPECT_NE(message([] { parse_presets({"three,filament", "three"}); }).find("given twice"), std::string::npos);
     EXPECT_EQ(parse_presets({"three,filament", "babylon"}).size(), 3u);
-    EXPECT_TRUE(parse_presets({""}).empty());
+    EXPECT_TRUE(parse_presets({}).empty());
+    // Issue 24 (E14): contradictions and empty parts are refused, not the last one silently kept.
+    EXPECT_NE(message([] { parse_preset("khronos:rgba32f:rgba16f"); }).find("contradict"), std::string::npos);
+    EXPECT_NE(message([] { parse_preset("khronos:zstd:nozstd"); }).find("contradict"), std::string::npos);
+    EXPECT_NE(message([] { parse_preset("khronos:"); }).find("empty modifier"), std::string::npos);
+    EXPECT_NE(message([] { parse_presets({""}); }).find("empty preset"), std::string::npos);
+    EXPECT_NE(message([] { parse_presets({"three,,khronos"}); }).find("empty preset name"), std::string::npos);
+    // E6: a chain that would hold the mirror level alone.
+    EXPECT_NE(message([] { check_preset_face_size(parse_preset("three"), 16); }).find("32 or more"), std::string::npos);
+    EXPECT_EQ(message([] { check_preset_face_size(parse_preset("three"), 32); }), "");
+    EXPECT_EQ(message([] { check_preset_face_size(parse_preset("khronos"), 2); }), "");
 }
 
 // ---------------------------------------------------------------- conventions
@@ -770,7 +780,7 @@ TEST(Export, MarkerColoursLandWhereEachMirrorPutsThem) {
     const fs::path dir = temp_dir("marker");
     io::write_exr((dir / "src.exr").string(), src, io::ExrPixel::Float);
     BakeOptions bo;
-    bo.face_size = 16;
+    bo.face_size = 32;  // three needs two levels at least (issue 24, E6)
     bo.irradiance_size = 4;
     bo.lut = false;
     WriteOptions wo;
@@ -779,7 +789,7 @@ TEST(Export, MarkerColoursLandWhereEachMirrorPutsThem) {
     // The centre texel of each face of level 0 in each KTX2 file.
     auto centre = [&](const std::string& preset, int face, float out[3]) {
         const Bytes b = read_file(dir / "out" / preset / "specular.ktx2");
-        const size_t n = 16, at = u64(b, 80) + ((face * n + n / 2) * n + n / 2) * 8;
+        const size_t n = 32, at = u64(b, 80) + ((face * n + n / 2) * n + n / 2) * 8;
         for (int c = 0; c < 3; ++c) out[c] = f16(b, at + 2 * c);
     };
     // none: the face's own colour; x: +X and -X swapped; z: +Z and -Z swapped.

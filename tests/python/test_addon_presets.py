@@ -15,7 +15,7 @@ from iblbake.core.world import IMAGE, WorldSource  # noqa: E402
 
 
 def small(tmp_path, **kw):
-    s = BakeSettings(out_dir=str(tmp_path / "out"), face_size=16, irradiance_size=4, lut_size=16,
+    s = BakeSettings(out_dir=str(tmp_path / "out"), face_size=32, irradiance_size=4, lut_size=16,
                      lut_cache_dir=str(tmp_path / "cache"))
     for k, v in kw.items():
         setattr(s, k, v)

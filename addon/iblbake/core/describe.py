@@ -46,6 +46,25 @@ def needs_sentences(needs: Needs, mip_count: int, scene_only: bool, presets: Tup
     return out
 
 
+def sun_sentence(sun) -> str:
+    """What a bake with sun="split" found, as the panel says it: "Sun at 34°
+    elevation, 0.6° across, 92 % of the direct light" (the light's share of
+    the light on a surface facing it), or "No sun found"; "" for a bake
+    that did not look (sun is None)."""
+    if not isinstance(sun, dict):
+        return ""
+    if not sun.get("found"):
+        return "No sun found"
+    return "Sun at %.0f\u00b0 elevation, %s\u00b0 across, %.0f %% of the direct light" % (
+        sun.get("elevation_deg", 0.0), _short(sun.get("angular_diameter_deg", 0.0)),
+        100.0 * sun.get("irradiance_share", 0.0))
+
+
+def _short(x: float) -> str:
+    """A small angle with two significant digits: 0.53, 1.2, 12."""
+    return "%.2g" % x if x < 10 else "%.0f" % x
+
+
 def shorten_middle(text: str, max_chars: int) -> str:
     """`text` in at most max_chars characters, cut in the middle ("/home/a/…/ibl/World")
     so that its end (the folder's own name) stays visible."""

@@ -23,8 +23,9 @@ ADDON_ROWS = [
 BLENDER_DEFAULTS = {"preview": True}
 
 # Options the World panel sets per scene ("what to bake"); the rest are the
-# options the preferences give new scenes (and a scene may override).
-SCENE_OUTPUTS = ("irradiance", "specular", "lut")
+# options the preferences give new scenes (and a scene may override). The
+# sun (off or split, issue 27) is a choice of the scene's world too.
+SCENE_OUTPUTS = ("irradiance", "specular", "lut", "sun")
 
 # Rows shown only when another option has a value (the panel hides them otherwise).
 REQUIRES = {"png_encoding": ("formats", "png"), "exposure": ("formats", "png")}

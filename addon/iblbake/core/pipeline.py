@@ -119,6 +119,7 @@ def source_warnings(source: WorldSource) -> list:
     if source.path == COLOR and any(c < 0 for c in source.color):
         out.append("the world colour times Strength is negative (%s): baked as 0"
                    % ", ".join("%g" % c for c in source.color))
+    out += source.drivers
     return out
 
 

@@ -5,7 +5,7 @@ prepare_pixels() applies what the nodes say (colour space, Mapping node,
 Strength) to the image's pixels as Blender hands them over."""
 import math
 from dataclasses import dataclass, field
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -90,6 +90,7 @@ class WorldSource:
     is_float: bool = True
     mapping: Optional[Mapping] = None
     render: dict = field(default_factory=dict)  # RENDER: width, height, samples
+    drivers: List[str] = field(default_factory=list)  # drivers of the world Blender did not run
 
     def to_json(self) -> dict:
         d = {"path": self.path, "world": self.world}
@@ -114,6 +115,10 @@ class WorldSource:
     def check_colorspace(self):
         if not self.is_float and self.colorspace != "sRGB" and self.colorspace not in LINEAR_COLORSPACES:
             raise ValueError("the Color Space %r of an 8-bit image is not read directly" % self.colorspace)
+        # Blender's buffer of a float image in a non-linear space is not what
+        # Cycles shows (1000 in sRGB: 40.5 in the buffer, 1.39e7 in Cycles).
+        if self.is_float and self.colorspace not in LINEAR_COLORSPACES:
+            raise ValueError("the Color Space %r of a float image is not read directly" % self.colorspace)
 
 
 def prepare_pixels(src: WorldSource, rgba_bottom_up: np.ndarray, width: int, height: int, remap=None) -> np.ndarray:

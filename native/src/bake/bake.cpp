@@ -174,6 +174,13 @@ struct SinkGuard {
 };
 
 // The LUT, read from the cache when there (it depends on its settings alone).
+// A world whose every texel is 0 lights nothing: baked, but never silently
+// (a driver Blender did not run, a Strength of 0, an image of zeros).
+void warn_if_black(BakeResult& r) {
+    if (r.mean_radiance[0] == 0 && r.mean_radiance[1] == 0 && r.mean_radiance[2] == 0)
+        r.warnings.push_back("the world is black (every texel is 0): the bake lights nothing");
+}
+
 void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
     if (lut_cache) r.lut = lut_cache->load(key);
@@ -336,6 +343,14 @@ SpecularMethod specular_method_from_name(const std::string& name) {
     throw std::invalid_argument("unknown specular method '" + name + "' (expected hierarchical or fis)");
 }
 
+const char* sun_mode_name(SunMode m) { return m == SunMode::Split ? "split" : "off"; }
+
+SunMode sun_mode_from_name(const std::string& name) {
+    if (name == "off") return SunMode::Off;
+    if (name == "split") return SunMode::Split;
+    throw std::invalid_argument("unknown sun mode '" + name + "' (expected off or split)");
+}
+
 void BakeOptions::validate() const {
     // Each option's own range (bake/options.h: 4096 on a side, since a cube
     // of 6 x 4096^2 RGB floats is 1.2 GB and its cross and files as much again).
@@ -423,9 +438,11 @@ struct SourceBake {
     Image copy;          // a cleaned copy of a source not owned
     std::vector<float> clean_rows;
     std::vector<const float*> row_table;
-    bool summary_refreshed = false;  // the summary's bad rows were summarized again once cleaned
+    bool summary_refreshed = false;  // the summary's changed rows (cleaned, sun-free) were summarized again
     ImageView source;                // the cleaned source (turned by orient())
     Image oriented;                  // orient(): the source turned about the up axis
+    std::vector<float> sun_rows;     // split_sun(): the changed rows of a source not owned
+    std::vector<const float*> sun_row_table;
     // sh9(): the grid the integrals run on.
     Image resampled;
     ImageView integrand;
@@ -512,6 +529,8 @@ void sanitize(SourceBake& b) {
     b.clock.done("sanitize");
 }
 
+bool same_pixels(const ImageView& a, const ImageView& b) { return a.data == b.data && a.rows == b.rows; }
+
 // The world turned about its up axis (option `rotation`), as Blender's
 // Mapping node (Point, Z) turns an Environment Texture: direction d of the
 // result shows L(Rz d) of the cleaned source (ibl/source.h's remap_latlong).
@@ -529,7 +548,29 @@ void orient(SourceBake& b) {
     b.clock.done("orient");
 }
 
-bool same_pixels(const ImageView& a, const ImageView& b) { return a.data == b.data && a.rows == b.rows; }
+
+// The sun as a light (option `sun`, ibl/sun.h): found in the cleaned,
+// turned source, whose texels it covered are replaced by the sky behind it;
+// every stage after this one reads the sun-free source. A source this bake
+// owns is changed in place; one it does not gets copies of the changed rows
+// (as sanitize() does). The scan's summary, when it described the source,
+// is brought up to date for those rows alone.
+void split_sun_stage(SourceBake& b) {
+    if (b.o.sun != SunMode::Split) return;
+    b.report("sun", b.done);
+    SunSplit split = split_sun(b.source);
+    b.r.sun = split.light;
+    if (!split.texels.empty()) {
+        const bool described = b.scale_exp == 0 && (b.summary_refreshed || same_pixels(b.source, b.scanned));
+        if (b.owned) apply_sun_split(*b.owned, split);
+        else b.view = b.source = sun_free_view(b.source, split, b.sun_rows, b.sun_row_table);
+        if (described) {
+            refresh_summary_rows(b.summary, b.source, split.rows);
+            b.summary_refreshed = true;
+        }
+    }
+    b.clock.done("sun");
+}
 
 // The grid the integrals run on, and the SH9 of the radiance on it.
 void sh9(SourceBake& b) {
@@ -765,10 +806,17 @@ void finish_and_check(SourceBake& b) {
             for (double& v : ch) v = std::ldexp(v, b.scale_exp);
         for (double& v : r.mean_radiance) v = std::ldexp(v, b.scale_exp);
         r.hot_threshold = std::ldexp(r.hot_threshold, b.scale_exp);
+        if (r.sun) {
+            for (double& v : r.sun->illuminance) v = std::ldexp(v, b.scale_exp);
+            for (double& v : r.sun->removed_power) v = std::ldexp(v, b.scale_exp);
+            for (double* v : {&r.sun->peak_luminance, &r.sun->ring_luminance, &r.sun->rival_luminance})
+                *v = std::ldexp(*v, b.scale_exp);
+        }
     }
     if (b.saturated)
         r.warnings.push_back(std::to_string(b.saturated) +
                              " output values exceeded the float range and were saturated at 3.4e38");
+    warn_if_black(r);
     check_outputs(r, !b.owned_source);
     if (b.sink) b.sink->wait();
     b.report("done", 1.0);
@@ -786,6 +834,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         scan(b);
         sanitize(b);
         orient(b);
+        split_sun_stage(b);
         sh9(b);
         plan_levels(b);
         mirror_levels(b);
@@ -828,6 +877,10 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         };
         option_warnings(r, o);
         report("reading source", 0.0);
+        if (o.sun == SunMode::Split) {
+            r.sun = SunLight{};
+            r.sun->why = "no compact source: a plain colour lights evenly from every direction";
+        }
         Image one(1, 1);
         std::copy(rgb.begin(), rgb.end(), one.pixels.begin());
         r.bad_input = sanitize(one);
@@ -876,6 +929,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));
         }
         extra_lut_stage(r, o, lut_cache);
+        warn_if_black(r);
         check_outputs(r, false);
         if (sink) sink->wait();
         report("done", 1.0);

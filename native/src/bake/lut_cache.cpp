@@ -1,5 +1,6 @@
 #include "iblbake/bake/lut_cache.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <system_error>
 
 #include "iblbake/io/hash.h"
+#include "iblbake/io/open_regular.h"
 
 namespace iblbake {
 
@@ -32,18 +34,22 @@ std::string tmp_tag() {
     return std::to_string(::getpid()) + "-" + std::to_string(counter++);
 }
 
-// Entry layout: 8-byte magic, width and height (int32, this machine's
-// byte order, as the magic's last byte records), the payload's sha256
-// (64 hex digits), then width * height * 3 float32. Read back with one fread: a
-// warm LUT costs about a millisecond, where decoding a zip EXR of it took
-// 37 ms. An entry whose payload does not match its checksum, or holds a
-// value that is not finite, is a miss: the table is made again and the
-// entry overwritten (the cache is shared by every bake on the machine, so
-// one damaged file must not poison them).
-constexpr char kMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', '2', char(sizeof(int) * 16 + sizeof(float))};
+// Entry layout (<key>.lut): 8-byte magic, width and height (int32, this
+// machine's byte order, as the magic's last byte records), the checksum
+// (64 hex digits), the key's length (uint32) and the key, then
+// width * height * 3 float32. The checksum is the sha256 of the key and the
+// payload's sha256: an intact entry under another entry's name (caches are
+// synced, restored, copied) is a miss, not another LUT. Read back with one
+// fread: a warm LUT costs about a millisecond, where decoding a zip EXR of
+// it took 37 ms. An entry whose key or payload does not match its checksum,
+// or holds a value that is not finite, is a miss: the table is made again
+// and the entry overwritten (the cache is shared by every bake on the
+// machine, so one damaged or misnamed file must not poison them).
+constexpr char kMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', '3', char(sizeof(int) * 16 + sizeof(float))};
+constexpr uint32_t kMaxKey = 1024;
 
-std::string payload_digest(const Image& img) {
-    return io::sha256_bytes(img.pixels.data(), img.pixels.size() * sizeof(float));
+std::string entry_digest(const std::string& key, const void* payload, size_t bytes) {
+    return io::sha256_bytes((key + '\n' + io::sha256_bytes(payload, bytes)).data(), key.size() + 65);
 }
 
 struct File {
@@ -53,11 +59,33 @@ struct File {
     }
 };
 
+// A cache entry, opened only when it is a regular file: without blocking (a
+// FIFO named like an entry would hang every bake that needs it) and without
+// following a symbolic link. nullptr: a miss.
+std::FILE* open_entry(const fs::path& p) {
+    const int fd = io::open_regular_file(p.string(), false);
+    if (fd < 0) return nullptr;
+    std::FILE* f = ::fdopen(fd, "rb");
+    if (!f) ::close(fd);
+    return f;
+}
+
+bool read_key(std::FILE* f, const std::string& expected) {
+    uint32_t n = 0;
+    if (std::fread(&n, sizeof n, 1, f) != 1 || n != expected.size() || n > kMaxKey) return false;
+    std::string key(n, '\0');
+    return std::fread(key.data(), 1, n, f) == n && key == expected;
+}
+
+bool write_key(std::FILE* f, const std::string& key) {
+    const uint32_t n = uint32_t(key.size());
+    return std::fwrite(&n, sizeof n, 1, f) == 1 && std::fwrite(key.data(), 1, n, f) == n;
+}
+
 }  // namespace
 
 std::optional<Image> FileLutCache::load(const std::string& key) {
-    const fs::path p = dir_ / (key + ".lut");
-    File file{std::fopen(p.c_str(), "rb")};
+    File file{open_entry(dir_ / (key + ".lut"))};
     if (!file.f) return std::nullopt;
     char magic[8];
     int32_t wh[2];
@@ -66,29 +94,31 @@ std::optional<Image> FileLutCache::load(const std::string& key) {
         return std::nullopt;
     char digest[65] = {0};
     if (std::fread(digest, 1, 64, file.f) != 64) return std::nullopt;
+    if (!read_key(file.f, key)) return std::nullopt;  // another LUT's entry under this name
     Image lut(wh[0], wh[1], Uninitialized{});  // read whole below, or a miss
     if (std::fread(lut.pixels.data(), sizeof(float), lut.pixels.size(), file.f) != lut.pixels.size())
         return std::nullopt;  // truncated: a miss, and store() replaces it
     char extra;
     if (std::fread(&extra, 1, 1, file.f) != 0) return std::nullopt;  // too long: not what we wrote
     if (!all_finite(lut.pixels)) return std::nullopt;
-    if (payload_digest(lut) != std::string(digest, 64)) return std::nullopt;  // damaged
+    if (entry_digest(key, lut.pixels.data(), lut.pixels.size() * sizeof(float)) != std::string(digest, 64))
+        return std::nullopt;  // damaged
     return lut;
 }
 
 void FileLutCache::store(const std::string& key, const Image& lut) {
     std::error_code ec;
     fs::create_directories(dir_, ec);
-    if (ec) return;  // a cache that cannot be written is not an error
+    if (ec || key.size() > kMaxKey) return;  // a cache that cannot be written is not an error
     const fs::path final_path = dir_ / (key + ".lut");
     const fs::path tmp = dir_ / (key + ".tmp-" + tmp_tag() + ".lut");
     bool ok = false;
     {
         File file{std::fopen(tmp.c_str(), "wb")};
         const int32_t wh[2] = {lut.width, lut.height};
-        const std::string digest = payload_digest(lut);
+        const std::string digest = entry_digest(key, lut.pixels.data(), lut.pixels.size() * sizeof(float));
         ok = file.f && std::fwrite(kMagic, 1, 8, file.f) == 8 && std::fwrite(wh, sizeof(int32_t), 2, file.f) == 2 &&
-             std::fwrite(digest.data(), 1, 64, file.f) == 64 &&
+             std::fwrite(digest.data(), 1, 64, file.f) == 64 && write_key(file.f, key) &&
              std::fwrite(lut.pixels.data(), sizeof(float), lut.pixels.size(), file.f) == lut.pixels.size() &&
              std::fflush(file.f) == 0;
     }
@@ -97,21 +127,23 @@ void FileLutCache::store(const std::string& key, const Image& lut) {
 }
 
 std::string encoded_lut_key(const Image& lut, const std::string& encoding) {
-    return "brdf_lut-file-" + payload_digest(lut) + "-" + encoding;
+    return "brdf_lut-file-" + io::sha256_bytes(lut.pixels.data(), lut.pixels.size() * sizeof(float)) + "-" + encoding;
 }
 
 namespace {
 
-constexpr char kEncodedMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', 'F', '1'};
+// <key>.enc: magic, the checksum of the key and the bytes (as above), the
+// key's length (uint32) and the key, the bytes.
+constexpr char kEncodedMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', 'F', '2'};
 
-// The whole file, or nothing (missing, unreadable or larger than `limit`).
+// The whole file, or nothing (missing, not a regular file, unreadable or
+// larger than `limit`).
 std::optional<std::string> read_all(const fs::path& p, uintmax_t limit) {
-    std::error_code ec;
-    const uintmax_t size = fs::file_size(p, ec);
-    if (ec || size > limit) return std::nullopt;
-    File file{std::fopen(p.c_str(), "rb")};
+    File file{open_entry(p)};
     if (!file.f) return std::nullopt;
-    std::string bytes(size_t(size), '\0');
+    struct stat st {};
+    if (::fstat(::fileno(file.f), &st) != 0 || uintmax_t(st.st_size) > limit) return std::nullopt;
+    std::string bytes(size_t(st.st_size), '\0');
     if (std::fread(bytes.data(), 1, bytes.size(), file.f) != bytes.size()) return std::nullopt;
     char extra;
     if (std::fread(&extra, 1, 1, file.f) != 0) return std::nullopt;  // grew while read
@@ -125,17 +157,24 @@ bool write_all(const fs::path& p, const char* data, size_t size) {
 
 constexpr uintmax_t kMaxEncoded = uintmax_t(1) << 30;  // a 4096^2 float LUT is 200 MB
 
+std::string encoded_head(const std::string& key, const char* bytes, size_t size) {
+    const uint32_t n = uint32_t(key.size());
+    return std::string(kEncodedMagic, 8) + entry_digest(key, bytes, size) +
+           std::string(reinterpret_cast<const char*>(&n), sizeof n) + key;
+}
+
 }  // namespace
 
 bool FileLutCache::copy_encoded(const std::string& key, const fs::path& to, std::string* sha256) {
-    const std::optional<std::string> entry = read_all(dir_ / (key + ".enc"), kMaxEncoded + 72);
-    if (!entry || entry->size() < 72 || std::memcmp(entry->data(), kEncodedMagic, 8) != 0) return false;
-    const char* bytes = entry->data() + 72;
-    const size_t size = entry->size() - 72;
-    std::string digest = io::sha256_bytes(bytes, size);
-    if (digest != entry->substr(8, 64)) return false;  // damaged
+    const size_t head = 8 + 64 + sizeof(uint32_t) + key.size();
+    const std::optional<std::string> entry = read_all(dir_ / (key + ".enc"), kMaxEncoded + head);
+    if (!entry || entry->size() < head || key.size() > kMaxKey) return false;
+    const char* bytes = entry->data() + head;
+    const size_t size = entry->size() - head;
+    // The magic, the key it was stored under and the checksum of both with the bytes.
+    if (entry->compare(0, head, encoded_head(key, bytes, size)) != 0) return false;  // damaged or misnamed
     if (write_all(to, bytes, size)) {
-        if (sha256) *sha256 = std::move(digest);
+        if (sha256) *sha256 = io::sha256_bytes(bytes, size);
         return true;
     }
     std::error_code ec;
@@ -144,14 +183,13 @@ bool FileLutCache::copy_encoded(const std::string& key, const fs::path& to, std:
 }
 
 void FileLutCache::store_encoded(const std::string& key, const fs::path& from) {
+    if (key.size() > kMaxKey) return;
     const std::optional<std::string> bytes = read_all(from, kMaxEncoded);
     if (!bytes) return;
     std::error_code ec;
     fs::create_directories(dir_, ec);
     if (ec) return;  // a cache that cannot be written is not an error
-    std::string entry(kEncodedMagic, 8);
-    entry += io::sha256_bytes(bytes->data(), bytes->size());
-    entry += *bytes;
+    const std::string entry = encoded_head(key, bytes->data(), bytes->size()) + *bytes;
     const fs::path tmp = dir_ / (key + ".tmp-" + tmp_tag() + ".enc");
     if (write_all(tmp, entry.data(), entry.size())) fs::rename(tmp, dir_ / (key + ".enc"), ec);
     fs::remove(tmp, ec);

@@ -194,6 +194,19 @@ std::vector<Row> make_rows() {
                                       "(Point, Z) turns an Environment Texture", cli),
                                  -360, 360),
                           &BakeOptions::rotation));
+    {
+        OptionSpec s = spec("sun", "Sun",
+                            "the dominant compact light (the sun) as a directional light of its own, every output "
+                            "baked from the environment without it (sun.json, sun.gltf)",
+                            ui);
+        s.kind = OptionKind::Choice;
+        s.choices = {{"off", "Off", "bake the environment as it is"},
+                     {"split", "Split",
+                      "find the sun, bake the environment without it and export it as a light (or say why there is none)"}};
+        t.push_back({std::move(s),
+                     [](BakeOptions& o, const OptionValue& v) { o.sun = sun_mode_from_name(std::get<std::string>(v)); },
+                     [](const BakeOptions& o) { return OptionValue(std::string(sun_mode_name(o.sun))); }});
+    }
     t.push_back(bool_row(spec("strict", "Strict", "fail on NaN, Inf or negative source values instead of zeroing them", cli),
                          &BakeOptions::strict));
     t.push_back(int_row(ranged(spec("threads", "Threads", "worker threads", cli), 0, 1024, " (0: all cores)"),

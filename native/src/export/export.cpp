@@ -7,6 +7,7 @@
 
 #include "iblbake/export/container.h"
 #include "iblbake/export/convert.h"
+#include "iblbake/export/sun.h"
 #include "iblbake/io/image_io.h"
 
 namespace iblbake {
@@ -91,11 +92,11 @@ json run_preset(const ExportInput& in, const fs::path& root, const std::string& 
     if (p.container == Container::Source) {
         if (!in.source) throw std::logic_error("no source given for the source preset");
         io::write_exr((dir / "source.exr").string(), *in.source, io::ExrPixel::Float);
-        io::write_hdr((dir / "source.hdr").string(), *in.source);
+        const uint64_t clamped = io::write_hdr((dir / "source.hdr").string(), *in.source);
         files["source"] = "source.exr";
         files["source_hdr"] = "source.hdr";
         written.push_back({{"file", "source.exr"}, {"encoding", "float"}});
-        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}});
+        written.push_back({{"file", "source.hdr"}, {"encoding", "rgbe"}, {"clamped_texels", clamped}});
         m["specular"] = json::array();
         m["lod_formula"] = nullptr;
         m["source"] = {{"width", in.source->width}, {"height", in.source->height},
@@ -159,6 +160,13 @@ json run_preset(const ExportInput& in, const fs::path& root, const std::string& 
                     {"axes", {{"x", "NdotV = (i + 0.5) / N"}, {"y", "roughness = (j + 0.5) / N, j from the top row"}}}};
     } else {
         m["lut"] = nullptr;
+    }
+    if (in.sun && in.sun->found) {
+        const json light = engine_light(*in.sun, p);
+        io::write_text((dir / "sun.json").string(), light.dump(2) + "\n");
+        files["sun"] = "sun.json";
+        written.push_back({{"file", "sun.json"}, {"encoding", "json"}});
+        m["sun"] = light;
     }
     m["files"] = files;
     m["written"] = written;

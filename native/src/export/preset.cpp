@@ -32,6 +32,13 @@ std::vector<Preset> make_table() {
                          "Or a THREE.LightProbe from `sh` (adds to the environment's diffuse: use one or the other)";
         p.notes = "r187's KTX2Loader returns an uncompressed cube as a flat texture: rebuild the cube from its "
                   "mipmaps (README). Image cubes are sampled at (-x, y, z): stored x-mirrored";
+        p.light = {Mirror::None, 1.0,
+                   "DirectionalLight intensity (r155+ physical lighting): colour x intensity is the illuminance at "
+                   "normal incidence, lux when the environment is in nits",
+                   "const sun = new THREE.DirectionalLight(new THREE.Color(r, g, b), intensity); "
+                   "sun.position.set(x, y, z) (direction; its target stays at the origin); scene.add(sun); or "
+                   "GLTFLoader on sun.gltf",
+                   true};
         t.push_back(p);
     }
     {
@@ -51,6 +58,8 @@ std::vector<Preset> make_table() {
         p.lod_formula = "lod = T r, T = mip count - 1 (u_MipCount - 1)";
         p.diffuse_note = "diffuse.ktx2: the Lambertian cube, Irr (stored / pi: a white surface reflects the value)";
         p.notes = "SPEC's faces and chain unchanged; brdf_lut.png is the height-correlated Smith LUT, uv = (NdotV, r)";
+        p.light = {Mirror::None, 1.0, "KHR_lights_punctual directional light: intensity in lux (colour x intensity)",
+                   "sun.gltf: one node whose -Z is light_direction, a KHR_lights_punctual directional light", false};
         t.push_back(p);
     }
     {
@@ -69,6 +78,10 @@ std::vector<Preset> make_table() {
         p.lod_formula = "lod = T r, T = textureNumLevels - 1";
         p.diffuse_note = "diffuse.ktx2: the irradiance cube Irr, z-mirrored like the specular";
         p.notes = "Bevy samples cubes at (x, y, -z): stored z-mirrored";
+        p.light = {Mirror::None, 1.0, "DirectionalLight illuminance in lux (colour x illuminance)",
+                   "DirectionalLight { color: Color::linear_rgb(r, g, b), illuminance, ..default() } with "
+                   "Transform::from_translation(Vec3::new(x, y, z)).looking_at(Vec3::ZERO, Vec3::Y)",
+                   false};
         t.push_back(p);
     }
     {
@@ -88,6 +101,10 @@ std::vector<Preset> make_table() {
         p.diffuse_note = "ibl.ktx key `sh`: 27 floats, Filament's pre-scaled irradiance SH (sh9 x k)";
         p.notes = "skybox.ktx holds level 0 alone (createSkyFromKtx1). Filament's web build takes RGBA16F but "
                   "logs that it expects R11F_G11F_B10F (filament:r11g11b10f, about 3 % precision)";
+        p.light = {Mirror::None, 1.0, "LightManager intensity in lux (colour x intensity), Type::SUN",
+                   "LightManager::Builder(LightManager::Type::SUN).color({r, g, b}).intensity(intensity)"
+                   ".direction({lx, ly, lz}).sunAngularRadius(angular_diameter_deg / 2).build(engine, entity)",
+                   false};
         t.push_back(p);
     }
     {
@@ -109,6 +126,11 @@ std::vector<Preset> make_table() {
         p.diffuse_note = "the spherical polynomial in the header (irradiance), from the z-mirrored sh9";
         p.notes = "RGBD PNG faces for every level down to 1 x 1 (Babylon requires the full chain); Babylon looks "
                   "cubes up left-handed: stored z-mirrored";
+        p.light = {Mirror::Z, 1.0,
+                   "DirectionalLight intensity, illuminance mode (photometric scale 1): colour x intensity, lux",
+                   "const sun = new DirectionalLight('sun', new Vector3(lx, ly, lz), scene); "
+                   "sun.diffuse = new Color3(r, g, b); sun.intensity = intensity; or the glTF loader on sun.gltf",
+                   false};
         t.push_back(p);
     }
     {
@@ -127,6 +149,12 @@ std::vector<Preset> make_table() {
         p.lod_formula = "lod = 6 r (1.7 - 0.7 r) (UNITY_SPECCUBE_LOD_STEPS 6); levels below 6 hold r = 1";
         p.diffuse_note = "Unity computes its ambient SH from the skybox itself";
         p.notes = "left-handed: stored x-mirrored (unverified in a running Unity)";
+        p.light = {Mirror::X, 1.0 / 3.14159265358979323846,
+                   "Light.intensity of a directional light (built-in / URP: their diffuse BRDF leaves out "
+                   "Lambert's 1 / pi, so the intensity is E / pi), colour in linear space",
+                   "light.type = LightType.Directional; light.color = new Color(r, g, b); light.intensity = intensity; "
+                   "light.transform.rotation = Quaternion.LookRotation(new Vector3(lx, ly, lz))",
+                   false};
         t.push_back(p);
     }
     {
@@ -146,6 +174,11 @@ std::vector<Preset> make_table() {
                          "czm_sphericalHarmonics evaluates as L00 + L1-1 y + L10 z + L11 x + ...)";
         p.notes = "from CesiumJS's shaders; not rendered in Cesium here: the axes of its IBL reference frame "
                   "(iblReferenceFrameMatrix) are unverified";
+        p.light = {Mirror::None, 1.0, "DirectionalLight intensity (colour x intensity); the axes of Cesium's IBL "
+                   "frame are unverified",
+                   "scene.light = new Cesium.DirectionalLight({ direction: new Cesium.Cartesian3(lx, ly, lz), "
+                   "color: new Cesium.Color(r, g, b), intensity })",
+                   false};
         t.push_back(p);
     }
     {
@@ -165,6 +198,11 @@ std::vector<Preset> make_table() {
         p.notes = "these engines filter IBL at import or at run time, so a prefiltered chain would be filtered "
                   "again: they get the source lat-long (cleaned of NaN, Inf and negative values) as EXR and "
                   "Radiance HDR";
+        p.light = {Mirror::None, 1.0, "lux (Unreal's Directional Light, Godot's DirectionalLight3D with physical "
+                   "light units): colour x intensity",
+                   "import sun.gltf with the engine's glTF importer (it converts the axes); Unreal's Source Angle = "
+                   "angular_diameter_deg, Godot's angular_distance = angular_diameter_deg / 2",
+                   false};
         t.push_back(p);
     }
     return t;
@@ -191,12 +229,22 @@ std::string trim(const std::string& s) {
     return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
 }
 
+std::vector<std::string> preset_names();
+
 }  // namespace
 
 const std::vector<Preset>& preset_table() {
     static const std::vector<Preset> table = make_table();
     return table;
 }
+
+namespace {
+std::vector<std::string> preset_names() {
+    std::vector<std::string> n;
+    for (const Preset& p : preset_table()) n.push_back(p.name);
+    return n;
+}
+}  // namespace
 
 const char* container_name(Container c) {
     switch (c) {
@@ -261,11 +309,7 @@ Preset parse_preset(const std::string& spec_in) {
     std::vector<std::string> parts;
     std::stringstream ss(spec);
     for (std::string part; std::getline(ss, part, ':');) parts.push_back(trim(part));
-    if (parts.empty() || parts[0].empty()) bad("empty preset name (expected one of " + [] {
-                                               std::vector<std::string> n;
-                                               for (const Preset& p : preset_table()) n.push_back(p.name);
-                                               return names(n);
-                                           }() + ")");
+    if (parts.empty() || parts[0].empty()) bad("empty preset name (expected one of " + names(preset_names()) + ")");
     const Preset* row = nullptr;
     std::vector<std::string> known;
     for (const Preset& p : preset_table()) {
@@ -274,11 +318,21 @@ Preset parse_preset(const std::string& spec_in) {
     }
     if (!row) bad("unknown preset '" + parts[0] + "' (expected one of " + names(known) + ")");
     Preset p = *row;
+    if (spec.back() == ':') parts.emplace_back();  // "khronos:": getline drops the empty last part
+    std::string format_given, zstd_given;           // each may be given once
+    auto once = [&](std::string& given, const std::string& m) {
+        if (!given.empty())
+            bad("preset '" + p.name + "': the modifiers '" + given + "' and '" + m +
+                "' contradict each other (give one)");
+        given = m;
+    };
     for (size_t i = 1; i < parts.size(); ++i) {
         const std::string& m = parts[i];
+        if (m.empty()) bad("preset '" + p.name + "': an empty modifier in '" + spec + "' (nothing after a ':')");
         if (m == "zstd" || m == "nozstd") {
             if (p.container != Container::Ktx2)
                 bad("preset '" + p.name + "': zstd supercompression applies to KTX2 only");
+            once(zstd_given, m);
             p.zstd = m == "zstd";
             continue;
         }
@@ -290,6 +344,7 @@ Preset parse_preset(const std::string& spec_in) {
             bad("preset '" + p.name + "': unknown modifier '" + m + "' (expected a format of its " +
                 container_name(p.container) + " file: " + names(allowed) +
                 (p.container == Container::Ktx2 ? "; or zstd, nozstd" : "") + ")");
+        once(format_given, m);
         p.format = f;
     }
     return p;
@@ -299,15 +354,25 @@ std::vector<Preset> parse_presets(const std::vector<std::string>& specs) {
     std::vector<Preset> out;
     std::set<std::string> seen;
     for (const std::string& s : specs) {
+        if (trim(s).empty()) bad("an empty preset (expected one of " + names(preset_names()) + ")");
         std::stringstream ss(s);
         for (std::string one; std::getline(ss, one, ',');) {
-            if (trim(one).empty()) continue;
+            if (trim(one).empty()) bad("an empty preset name in '" + s + "' (two commas, or one at an end)");
             Preset p = parse_preset(one);
             if (!seen.insert(p.name).second) bad("preset '" + p.name + "' is given twice");
             out.push_back(std::move(p));
         }
     }
     return out;
+}
+
+void check_preset_face_size(const Preset& p, int face_size) {
+    if (p.container == Container::Source || preset_level_count(p, face_size) >= 2) return;
+    int least = 2;
+    while (preset_level_count(p, least) < 2) least *= 2;
+    bad("preset '" + p.name + "' needs a face size of " + std::to_string(least) + " or more, not " +
+        std::to_string(face_size) + ": its chain stops at " + std::to_string(p.smallest) +
+        " px, so it would hold the mirror level alone (every material a mirror, no r = 1 level)");
 }
 
 int preset_level_count(const Preset& p, int n0) {

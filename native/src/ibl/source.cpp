@@ -130,21 +130,27 @@ SourceScan scan_source(ImageView img) {
     return combine_scans(rows);
 }
 
-ImageView sanitized_view(ImageView img, const SourceScan& scan, std::vector<float>& store,
-                         std::vector<const float*>& row_table) {
-    if (scan.bad_rows.empty()) return img;
+ImageView view_with_copied_rows(ImageView img, const std::vector<int>& rows, std::vector<float>& store,
+                                std::vector<const float*>& row_table) {
     const size_t n = size_t(img.width) * 3;
-    store.assign(scan.bad_rows.size() * n, 0.0f);
+    store.resize(rows.size() * n);
     row_table.resize(img.height);
     for (int y = 0; y < img.height; ++y) row_table[y] = img.at(0, y);
-    for (size_t k = 0; k < scan.bad_rows.size(); ++k) {
-        const int y = scan.bad_rows[k];
-        float* dst = store.data() + k * n;
-        clean_values(img.at(0, y), dst, n);
-        row_table[y] = dst;
+    for (size_t k = 0; k < rows.size(); ++k) {
+        std::copy_n(img.at(0, rows[k]), n, store.data() + k * n);
+        row_table[rows[k]] = store.data() + k * n;
     }
     ImageView v = img;
     v.rows = row_table.data();
+    return v;
+}
+
+ImageView sanitized_view(ImageView img, const SourceScan& scan, std::vector<float>& store,
+                         std::vector<const float*>& row_table) {
+    if (scan.bad_rows.empty()) return img;
+    const ImageView v = view_with_copied_rows(img, scan.bad_rows, store, row_table);
+    const size_t n = size_t(img.width) * 3;
+    for (size_t k = 0; k < scan.bad_rows.size(); ++k) clean_values(store.data() + k * n, store.data() + k * n, n);
     return v;
 }
 

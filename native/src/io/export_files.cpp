@@ -1,7 +1,9 @@
 // The exported containers' files: raw bytes, Radiance HDR, in-memory PNG.
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <memory>
 #include <stdexcept>
@@ -14,14 +16,28 @@ namespace iblbake::io {
 namespace {
 using File = std::unique_ptr<FILE, int (*)(FILE*)>;
 
+// The reason (strerror) is part of every message: "No space left on device".
+[[noreturn]] void cannot(const char* what, const std::string& path, const char* after = "") {
+    const int e = errno;
+    throw std::runtime_error(std::string(what) + " '" + path + "'" + after +
+                             (e ? std::string(": ") + std::strerror(e) : ""));
+}
+
 File open_for_writing(const std::string& path) {
+    errno = 0;
     File f(std::fopen(path.c_str(), "wb"), &std::fclose);
-    if (!f) throw std::runtime_error("cannot open '" + path + "' for writing");
+    if (!f) cannot("cannot open", path, " for writing");
     return f;
 }
 
 void write_all(FILE* f, const void* data, size_t bytes, const std::string& path) {
-    if (bytes && std::fwrite(data, 1, bytes, f) != bytes) throw std::runtime_error("cannot write '" + path + "'");
+    errno = 0;
+    if (bytes && std::fwrite(data, 1, bytes, f) != bytes) cannot("cannot write", path);
+}
+
+void flush(FILE* f, const std::string& path) {
+    errno = 0;
+    if (std::fflush(f) != 0) cannot("cannot write", path);
 }
 }  // namespace
 
@@ -48,20 +64,27 @@ void write_png16_fast(const std::string& path, int width, int height, int channe
     }
 }
 
-void float_to_rgbe(const float rgb[3], uint8_t out[4]) {
-    const float v = std::fmax(rgb[0], std::fmax(rgb[1], rgb[2]));
-    if (!(v >= 1e-32f)) {
+bool float_to_rgbe(const float rgb[3], uint8_t out[4]) {
+    // RGBE's largest value: mantissa 255 at exponent byte 255 (255 x 2^119,
+    // about 1.69e38); above it the exponent byte would wrap to 0 (black).
+    const float kLargest = std::ldexp(255.0f, 119);
+    const float peak = std::fmax(rgb[0], std::fmax(rgb[1], rgb[2]));
+    if (!(peak >= 1e-32f)) {
         out[0] = out[1] = out[2] = out[3] = 0;
-        return;
+        return false;
     }
+    const bool clamped = peak > kLargest;
+    const float v = clamped ? kLargest : peak;
     int e = 0;
     const float m = std::frexp(v, &e);  // v = m 2^e, m in [0.5, 1)
-    const float scale = m * 256.0f / v;
-    for (int c = 0; c < 3; ++c) out[c] = uint8_t(std::fmax(rgb[c], 0.0f) * scale);
+    const float scale = m * 256.0f / v * (v / peak);  // a clamped texel keeps its hue
+    for (int c = 0; c < 3; ++c) out[c] = uint8_t(std::fmin(std::fmax(rgb[c], 0.0f) * scale, 255.0f));
     out[3] = uint8_t(e + 128);
+    return clamped;
 }
 
-void write_hdr(const std::string& path, const Image& img) {
+uint64_t write_hdr(const std::string& path, const Image& img) {
+    uint64_t clamped = 0;
     if (img.width < 1 || img.height < 1) throw std::invalid_argument("write_hdr: empty image");
     File f = open_for_writing(path);
     const std::string header = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y " + std::to_string(img.height) + " +X " +
@@ -73,7 +96,7 @@ void write_hdr(const std::string& path, const Image& img) {
     // reads 2, 2, x < 128 would be taken for a run-length one by readers.
     const bool runs = img.width >= 8 && img.width <= 0x7fff;
     for (int y = 0; y < img.height; ++y) {
-        for (int x = 0; x < img.width; ++x) float_to_rgbe(img.at(x, y), row.data() + size_t(x) * 4);
+        for (int x = 0; x < img.width; ++x) clamped += float_to_rgbe(img.at(x, y), row.data() + size_t(x) * 4);
         if (!runs) {
             write_all(f.get(), row.data(), row.size(), path);
             continue;
@@ -87,13 +110,22 @@ void write_hdr(const std::string& path, const Image& img) {
             }
         write_all(f.get(), rle.data(), rle.size(), path);
     }
-    if (std::fflush(f.get()) != 0) throw std::runtime_error("cannot write '" + path + "'");
+    flush(f.get(), path);
+    return clamped;
 }
 
-void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+namespace {
+
+void write_file(const std::string& path, const void* data, size_t size) {
     File f = open_for_writing(path);
-    write_all(f.get(), bytes.data(), bytes.size(), path);
-    if (std::fflush(f.get()) != 0) throw std::runtime_error("cannot write '" + path + "'");
+    write_all(f.get(), data, size, path);
+    flush(f.get(), path);
 }
+
+}  // namespace
+
+void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) { write_file(path, bytes.data(), bytes.size()); }
+
+void write_text(const std::string& path, const std::string& text) { write_file(path, text.data(), text.size()); }
 
 }  // namespace iblbake::io

@@ -5,7 +5,10 @@
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfInputPart.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfPartType.h>
 #include <OpenEXR/ImfRgbaFile.h>
 #include <OpenEXR/ImfTestFile.h>
 #include <OpenEXR/ImfThreading.h>
@@ -21,8 +24,10 @@
 #include <cstdio>
 #include <memory>
 #include <mutex>
+#include <map>
 #include <string>
 #include <stdexcept>
+#include <vector>
 #include <thread>
 
 #include "iblbake/io/image_io.h"
@@ -142,21 +147,95 @@ void check_exr_headers(const std::string& path, uintmax_t file_size) {
     }
 }
 
-RawPixels read_exr(const std::string& path, uintmax_t file_size) {
-    RawPixels out;
-    out.format = "openexr";
-    limit_exr_sizes();
-    check_exr_headers(path, file_size);
-    const std::unique_ptr<Imf::InputFile> file = open_exr(path);
-    Imf::InputFile& in = *file;
-    const Imf::Header& h = in.header();
+namespace {
+
+// The channels a part's radiance is read from: R, G, B; else a layer's
+// R, G, B (Blender's multilayer `ViewLayer.Combined.R`, a pass's
+// `diffuse.R`) or lowercase r, g, b; else Y (grey, warned); else those of
+// R, G, B it has (grey, as issue 15 baked two). Alpha, depth and other
+// channels are never radiance. `why` says what a part without these holds.
+struct ChannelChoice {
+    std::vector<std::string> names;  // R, G, B (or a layer's), some of R, G, B, or Y; empty: none
+    std::string layer;               // "" for plain R, G, B
+};
+
+std::string listed(const std::vector<std::string>& v, size_t most = 4) {
+    std::string s;
+    for (size_t i = 0; i < v.size() && i < most; ++i) s += (i ? ", '" : "'") + shown_name(v[i]) + "'";
+    if (v.size() > most) s += " and " + std::to_string(v.size() - most) + " more";
+    return s;
+}
+
+ChannelChoice choose_channels(const Imf::ChannelList& ch, std::string& why) {
+    std::vector<std::string> all;
+    for (auto it = ch.begin(); it != ch.end(); ++it) all.emplace_back(it.name());
+    auto has = [&](const std::string& n) { return ch.findChannel(n.c_str()) != nullptr; };
+    if (has("R") && has("G") && has("B")) return {{"R", "G", "B"}, ""};
+    // Layers (everything before a channel's last dot) holding all of R, G, B or r, g, b.
+    std::vector<std::string> layers;
+    std::map<std::string, std::vector<std::string>> names;
+    for (const std::string& n : all) {
+        const size_t dot = n.rfind('.');
+        const std::string layer = dot == std::string::npos ? "" : n.substr(0, dot);
+        const std::string prefix = dot == std::string::npos ? "" : layer + ".";
+        for (const char* rgb : {"RGB", "rgb"})
+            if (n == prefix + rgb[0] && has(prefix + rgb[1]) && has(prefix + rgb[2])) {
+                layers.push_back(layer);
+                names[layer] = {prefix + rgb[0], prefix + rgb[1], prefix + rgb[2]};
+            }
+    }
+    const auto combined = std::find_if(layers.begin(), layers.end(), [](const std::string& l) {
+        return l == "Combined" || (l.size() > 9 && l.compare(l.size() - 9, 9, ".Combined") == 0);
+    });
+    if (combined != layers.end()) return {names[*combined], *combined};
+    if (layers.size() == 1) return {names[layers[0]], layers[0]};
+    if (layers.size() > 1) {
+        why = "it holds the colour layers " + listed(layers) + " and no plain R, G, B or Combined layer to choose";
+        return {};
+    }
+    if (has("Y")) return {{"Y"}, ""};
+    // Some of R, G, B (issue 15: two colour channels bake as grey, warned).
+    std::vector<std::string> some;
+    for (const char* n : {"R", "G", "B"})
+        if (has(n)) some.emplace_back(n);
+    if (!some.empty()) return {some, ""};
+    why = "it has no colour channels (R, G, B, a layer's R, G, B, or Y), only " + listed(all) +
+          " (alpha, depth and other passes are not radiance)";
+    return {};
+}
+
+template <typename In>
+void read_part(In& in, const std::vector<std::string>& names, RawPixels& out) {
+    const Imath::Box2i dw = in.header().dataWindow();
+    if (!in.isComplete()) throw std::runtime_error("file is truncated or damaged (rows are missing)");
+    for (const std::string& n : names) {
+        const Imf::Channel& c = in.header().channels()[n.c_str()];
+        if (c.xSampling != 1 || c.ySampling != 1)
+            throw std::runtime_error("channel '" + shown_name(n) +
+                                     "' is subsampled, which iblbake does not read: write the file with every "
+                                     "channel at full resolution");
+    }
+    out.channels = int(names.size());
+    // Not zeroed first: every value is written by readPixels (each channel
+    // asked for exists, the file is complete), by OpenEXR's threads, which
+    // then also take the page faults of a large image in parallel.
+    out.data.resize(size_t(out.width) * out.height * out.channels);
+    Imf::FrameBuffer fb;
+    const size_t xs = sizeof(float) * out.channels, ys = xs * out.width;
+    char* base = reinterpret_cast<char*>(out.data.data()) - dw.min.x * ptrdiff_t(xs) - dw.min.y * ptrdiff_t(ys);
+    for (int c = 0; c < out.channels; ++c)
+        fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
+    in.setFrameBuffer(fb);
+    in.readPixels(dw.min.y, dw.max.y);
+}
+
+// Sizes and windows of the part that is read.
+void take_windows(const Imf::Header& h, const Imf::ChannelList& ch, uintmax_t file_size, RawPixels& out) {
     const Imath::Box2i dw = h.dataWindow(), disp = h.displayWindow();
     const int64_t width = int64_t(dw.max.x) - dw.min.x + 1, height = int64_t(dw.max.y) - dw.min.y + 1;
-    const Imf::ChannelList& ch = h.channels();
     int declared_channels = 0;
     for (auto it = ch.begin(); it != ch.end(); ++it) ++declared_channels;
     check_declared(width, height, std::min(declared_channels, 3), file_size);
-    if (!in.isComplete()) throw std::runtime_error("file is truncated or damaged (rows are missing)");
     out.width = int(width);
     out.height = int(height);
     out.full_width = checked_int(int64_t(disp.max.x) - disp.min.x + 1, "display window");
@@ -164,8 +243,73 @@ RawPixels read_exr(const std::string& path, uintmax_t file_size) {
     out.x_offset = checked_int(int64_t(dw.min.x) - disp.min.x, "data window offset");
     out.y_offset = checked_int(int64_t(dw.min.y) - disp.min.y, "data window offset");
     if (out.full_width < 1 || out.full_height < 1) out.full_width = out.full_height = 0;
+}
+
+void note_choice(const ChannelChoice& c, RawPixels& out) {
+    if (c.names == std::vector<std::string>{"Y"})
+        out.warnings.push_back("the file has no colour channels, only luminance (Y): baked as grey");
+    else if (!c.layer.empty())
+        out.warnings.push_back("the file has no plain R, G, B channels: its layer '" + shown_name(c.layer) +
+                               "' is baked as the colour");
+}
+
+// A multi-part file: the first part with colour (else the first with Y).
+RawPixels read_exr_parts(const std::string& path, uintmax_t file_size) {
+    Imf::MultiPartInputFile file(path.c_str(), exr_line_buffer_threads());
+    int best = -1;
+    ChannelChoice choice;
+    std::string why;
+    for (int i = 0; i < file.parts(); ++i) {
+        const Imf::Header& h = file.header(i);
+        if (h.hasType() && (h.type() == Imf::DEEPSCANLINE || h.type() == Imf::DEEPTILE)) continue;
+        std::string part_why;
+        ChannelChoice c = choose_channels(h.channels(), part_why);
+        if (c.names.size() == 3) {
+            best = i, choice = std::move(c);
+            break;
+        }
+        if (!c.names.empty() && best < 0) best = i, choice = std::move(c);
+        if (why.empty()) why = part_why;
+    }
+    if (best < 0)
+        throw std::runtime_error("none of its " + std::to_string(file.parts()) + " parts holds an image to bake: " +
+                                 (why.empty() ? "all are deep" : "the first one: " + why));
+    RawPixels out;
+    out.format = "openexr";
+    const Imf::Header& h = file.header(best);
+    take_windows(h, h.channels(), file_size, out);
+    Imf::InputPart part(file, best);
+    read_part(part, choice.names, out);
+    note_choice(choice, out);
+    if (best > 0)
+        out.warnings.push_back("the file has " + std::to_string(file.parts()) + " parts: part " + std::to_string(best) +
+                               (h.hasName() ? " ('" + shown_name(h.name()) + "')" : std::string()) +
+                               " holds the colour and is baked");
+    return out;
+}
+
+}  // namespace
+
+RawPixels read_exr(const std::string& path, uintmax_t file_size) {
+    limit_exr_sizes();
+    check_exr_headers(path, file_size);
+    {
+        std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+        unsigned char head[8] = {0};
+        if (f && std::fread(head, 1, 8, f.get()) == 8 && (head[5] & 0x10)) return read_exr_parts(path, file_size);
+        if (head[5] & 0x08) throw std::runtime_error("a deep OpenEXR file (samples per pixel, not an image) cannot be baked");
+    }
+    RawPixels out;
+    out.format = "openexr";
+    const std::unique_ptr<Imf::InputFile> file = open_exr(path);
+    Imf::InputFile& in = *file;
+    const Imf::Header& h = in.header();
+    const Imf::ChannelList& ch = h.channels();
+    take_windows(h, ch, file_size, out);
+    if (!in.isComplete()) throw std::runtime_error("file is truncated or damaged (rows are missing)");
     // Luminance-chroma files need OpenEXR's RGBA conversion (half precision).
     if (ch.findChannel("RY") || ch.findChannel("BY")) {
+        const Imath::Box2i dw = h.dataWindow();
         Imf::RgbaInputFile rgba(path.c_str(), exr_line_buffer_threads());
         std::vector<Imf::Rgba> px(size_t(out.width) * out.height);
         rgba.setFrameBuffer(px.data() - dw.min.x - size_t(dw.min.y) * out.width, 1, out.width);
@@ -179,25 +323,11 @@ RawPixels read_exr(const std::string& path, uintmax_t file_size) {
         }
         return out;
     }
-    // R, G, B when present, else Y, else the first channel (grey).
-    std::vector<std::string> names;
-    for (const char* n : {"R", "G", "B"})
-        if (ch.findChannel(n)) names.emplace_back(n);
-    if (names.empty() && ch.findChannel("Y")) names.emplace_back("Y");
-    if (names.empty() && ch.begin() != ch.end()) names.emplace_back(ch.begin().name());
-    if (names.empty()) throw std::runtime_error("image has no channels");
-    out.channels = int(names.size());
-    // Not zeroed first: every value is written by readPixels (each channel
-    // asked for exists, the file is complete), by OpenEXR's threads, which
-    // then also take the page faults of a large image in parallel.
-    out.data.resize(size_t(out.width) * out.height * out.channels);
-    Imf::FrameBuffer fb;
-    const size_t xs = sizeof(float) * out.channels, ys = xs * out.width;
-    char* base = reinterpret_cast<char*>(out.data.data()) - dw.min.x * ptrdiff_t(xs) - dw.min.y * ptrdiff_t(ys);
-    for (int c = 0; c < out.channels; ++c)
-        fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
-    in.setFrameBuffer(fb);
-    in.readPixels(dw.min.y, dw.max.y);
+    std::string why;
+    const ChannelChoice choice = choose_channels(ch, why);
+    if (choice.names.empty()) throw std::runtime_error(why);
+    read_part(in, choice.names, out);
+    note_choice(choice, out);
     return out;
 }
 

@@ -1,4 +1,5 @@
 #include "iblbake/io/hash.h"
+#include "iblbake/io/open_regular.h"
 
 #include <openssl/evp.h>
 
@@ -38,15 +39,12 @@ std::string sha256_file(const std::string& path) {
     // open would wait for a writer) or a device (/dev/zero never ends) is
     // refused at once. Bakes hash their source beside its decoding, before
     // the reader has said what the path is.
-    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    if (fd < 0) throw std::runtime_error("cannot read '" + path + "' to hash it");
+    const int fd = open_regular_file(path);
+    if (fd < 0) throw std::runtime_error("cannot hash '" + path + "': not a readable regular file");
     struct Closer {
         int fd;
         ~Closer() { ::close(fd); }
     } closer{fd};
-    struct stat st {};
-    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
-        throw std::runtime_error("cannot hash '" + path + "': not a regular file");
     Digest d;
     // 128 KB at a time, not zeroed first: files are hashed while a bake is at
     // its largest (beside the reading of its source, in the writer's tasks).

@@ -109,6 +109,7 @@ RawPixels read_with_plugin(const std::string& path, const std::string& format, u
 // Display window, colour channels, sRGB decode: the same for every reader.
 LoadedImage finish(RawPixels&& r) {
     LoadedImage out;
+    out.warnings = std::move(r.warnings);
     const int dw = r.width, dh = r.height, nch = r.channels;
     int w = r.full_width > 0 ? r.full_width : dw, h = r.full_height > 0 ? r.full_height : dh;
     int ox = r.x_offset, oy = r.y_offset;
@@ -164,10 +165,15 @@ LoadedImage finish(RawPixels&& r) {
         out.image.pixels = std::move(raw);
         return out;
     }
+    // A world's texel is what Cycles shows: a straight alpha multiplies the
+    // colour as stored (before an sRGB decode, as Cycles does for 8-bit
+    // images); premultiplied colour (EXR, OpenImageIO's formats) is kept.
+    const bool by_alpha = r.straight_alpha && r.alpha_channel >= 0 && r.alpha_channel < nch;
     out.image = Image(w, h);
     for (size_t p = 0; p < size_t(w) * h; ++p)
         for (int k = 0; k < 3; ++k) {
             float v = raw[p * nch + colour[k]];
+            if (by_alpha) v *= raw[p * nch + r.alpha_channel];
             if (out.linearised) v = srgb_to_linear(v);
             out.image.pixels[p * 3 + k] = v;
         }
@@ -233,6 +239,16 @@ std::string format_of(std::FILE* f, const std::string& path) {
     if (n >= 4 && std::memcmp(head, "\x76\x2f\x31\x01", 4) == 0) return "openexr";
     const std::string sniffed = sniff(head, n);
     return sniffed.empty() ? format_of_extension(path) : sniffed;
+}
+
+// A Radiance file whose header says FORMAT=32-bit_rle_xyze.
+bool radiance_is_xyz(std::FILE* f) {
+    char head[1024] = {0};
+    std::rewind(f);
+    const size_t n = std::fread(head, 1, sizeof(head) - 1, f);
+    const std::string text(head, n);
+    const size_t end = text.find("\n\n");
+    return text.substr(0, end).find("FORMAT=32-bit_rle_xyze") != std::string::npos;
 }
 
 bool is_jpeg_magic(std::FILE* f) {
@@ -301,6 +317,12 @@ LoadedImage read_image(const std::string& path) {
                        "TIFF, ... and its extension names none)");
         if (format == "jpeg" && is_jpeg_magic(f.get()) && !jpeg_has_end(f.get(), size))
             fail(path, "JPEG file is truncated (no end-of-image marker)");
+        if (format == "hdr" && radiance_is_xyz(f.get()))
+            fail(path, "a Radiance file in CIE XYZ (FORMAT=32-bit_rle_xyze), which iblbake does not read: "
+                       "convert it to RGBE or EXR");
+        if (format == "dds")
+            fail(path, "a DDS texture (a GPU container, as iblbake's own exports are), not a lat-long source: "
+                       "bake from the EXR or HDR it was made from");
     }
     try {
         if (format == "openexr") return finish(detail::read_exr(path, size));

@@ -56,7 +56,7 @@ bool jpeg_read_core(jpeg_decompress_struct* cinfo, ErrorManager* err, JpegOut* o
     jpeg_stdio_src(cinfo, f);
     jpeg_read_header(cinfo, TRUE);
     if (cinfo->jpeg_color_space == JCS_CMYK || cinfo->jpeg_color_space == JCS_YCCK) {
-        *why = "CMYK JPEG files are not read (convert it to RGB)";
+        *why = "file is CMYK, which iblbake does not read: convert it to RGB";
         return false;
     }
     cinfo->out_color_space = cinfo->num_components == 1 ? JCS_GRAYSCALE : JCS_RGB;

@@ -17,6 +17,61 @@ void copy_text(char* dst, size_t size, const std::string& src) {
 }
 }  // namespace
 
+// The image as it is shown: EXIF/TIFF Orientation 2 to 8 (also what a
+// Radiance file's resolution string says, "+Y H +X W" and the like) turns
+// the stored pixels. Orientation 5 to 8 swap width and height.
+float* reorient(const float* in, int w, int h, int nch, int orientation, int& ow, int& oh) {
+    const bool swap = orientation >= 5;
+    ow = swap ? h : w;
+    oh = swap ? w : h;
+    float* out = static_cast<float*>(std::malloc(size_t(w) * h * nch * sizeof(float)));
+    if (!out) return nullptr;
+    for (int y = 0; y < oh; ++y)
+        for (int x = 0; x < ow; ++x) {
+            int sx = x, sy = y;  // the stored texel shown at (x, y)
+            switch (orientation) {
+                case 2: sx = w - 1 - x; break;
+                case 3: sx = w - 1 - x, sy = h - 1 - y; break;
+                case 4: sy = h - 1 - y; break;
+                case 5: sx = y, sy = x; break;
+                case 6: sx = y, sy = h - 1 - x; break;
+                case 7: sx = w - 1 - y, sy = h - 1 - x; break;
+                case 8: sx = w - 1 - y, sy = x; break;
+                default: break;
+            }
+            std::memcpy(out + (size_t(y) * ow + x) * nch, in + (size_t(sy) * w + sx) * nch, nch * sizeof(float));
+        }
+    return out;
+}
+
+// A Radiance file's orientation from its resolution line, as the EXIF
+// number of the same turn (0: no such line). OpenImageIO 2.4 reads
+// "+X W +Y H" as 6 and "-X W -Y H" as 8, the reverse of what they mean: a
+// first scanline that is the left column read bottom to top is 8.
+int radiance_orientation(const char* path) {
+    std::FILE* f = std::fopen(path, "rb");
+    if (!f) return 0;
+    char line[256];
+    bool blank = false;
+    int orientation = 0;
+    for (int n = 0; n < 256 && std::fgets(line, sizeof line, f); ++n) {
+        if (!blank) {
+            blank = line[0] == '\n' || (line[0] == '\r' && line[1] == '\n');
+            continue;
+        }
+        char a[3] = {0}, b[3] = {0};
+        if (std::sscanf(line, "%2s %*d %2s %*d", a, b) == 2) {
+            static const char* kOrder[8] = {"-Y+X", "-Y-X", "+Y-X", "+Y+X", "+X-Y", "-X-Y", "-X+Y", "+X+Y"};
+            const std::string key = std::string(a) + b;
+            for (int k = 0; k < 8; ++k)
+                if (key == kOrder[k]) orientation = k + 1;
+        }
+        break;
+    }
+    std::fclose(f);
+    return orientation;
+}
+
 // Only the reader of `format` is tried: OpenImageIO's ImageInput::open(path)
 // would try every reader it has on a file none of them takes (a gigabyte of
 // zeros kept it busy for minutes).
@@ -58,6 +113,27 @@ extern "C" __attribute__((visibility("default"))) int iblbake_oiio_read_v2(const
         copy_text(error, error_size, why);
         std::free(data);
         return 0;
+    }
+    const int from_hdr = std::strcmp(format, "hdr") == 0 ? radiance_orientation(path) : 0;
+    const int orientation = from_hdr ? from_hdr : spec.get_int_attribute("Orientation", 1);
+    if (orientation < 1 || orientation > 8) {
+        copy_text(error, error_size, "its Orientation is " + std::to_string(orientation) + " (1 to 8 are defined)");
+        std::free(data);
+        return 0;
+    }
+    if (orientation != 1) {
+        int w = 0, h = 0;
+        float* turned = reorient(data, spec.width, spec.height, spec.nchannels, orientation, w, h);
+        std::free(data);
+        if (!turned) {
+            copy_text(error, error_size, "out of memory");
+            return 0;
+        }
+        data = turned;
+        // The data window alone (a display window's offsets are in stored order).
+        spec.width = spec.full_width = w;
+        spec.height = spec.full_height = h;
+        spec.x = spec.full_x = spec.y = spec.full_y = 0;
     }
     out->width = spec.width;
     out->height = spec.height;

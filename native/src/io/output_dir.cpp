@@ -2,11 +2,13 @@
 
 #include <fcntl.h>
 #include <stdio.h>
+#include <sys/file.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
+#include <chrono>
 #include <cstdlib>
 #include <fstream>
 #include <random>
@@ -15,6 +17,7 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <typeinfo>
 
 #include <nlohmann/json.hpp>
 
@@ -33,15 +36,17 @@ std::string random_suffix() {
     return s;
 }
 
-bool exchange(const fs::path& a, const fs::path& b) {
+bool renameat2(const fs::path& a, const fs::path& b, unsigned flags) {
 #ifdef SYS_renameat2
-    constexpr unsigned kRenameExchange = 2;  // RENAME_EXCHANGE
-    return syscall(SYS_renameat2, AT_FDCWD, a.c_str(), AT_FDCWD, b.c_str(), kRenameExchange) == 0;
+    return syscall(SYS_renameat2, AT_FDCWD, a.c_str(), AT_FDCWD, b.c_str(), flags) == 0;
 #else
-    (void)a; (void)b;
+    (void)a; (void)b; (void)flags;
+    errno = ENOSYS;
     return false;
 #endif
 }
+bool exchange(const fs::path& a, const fs::path& b) { return renameat2(a, b, 2); }  // RENAME_EXCHANGE
+bool rename_noreplace(const fs::path& a, const fs::path& b) { return renameat2(a, b, 1); }  // RENAME_NOREPLACE
 }  // namespace
 
 namespace {
@@ -119,6 +124,26 @@ std::vector<std::string> foreign_files(const fs::path& dir) {
     return out;
 }
 
+std::string names_of(const std::vector<std::string>& v) {
+    std::string names;
+    for (size_t i = 0; i < v.size() && i < 3; ++i) names += (i ? ", '" : "'") + printable(v[i]) + "'";
+    if (v.size() > 3) names += " and " + std::to_string(v.size() - 3) + " more";
+    return names;
+}
+
+// Why the folder `dir` may not be replaced by a bake, as the end of a
+// sentence that starts with its name ("" when it may: it is empty, or holds
+// an earlier bake and nothing else).
+std::string why_kept(const fs::path& dir) {
+    std::error_code ec;
+    if (fs::is_empty(dir, ec) && !ec) return "";
+    if (!holds_a_bake(dir))
+        return " exists and holds something other than an iblbake bake (no iblbake manifest.json)";
+    const std::vector<std::string> foreign = foreign_files(dir);
+    if (!foreign.empty()) return " holds " + names_of(foreign) + ", which its earlier bake did not write";
+    return "";
+}
+
 // Staging names: .NAME.iblbake-PID-XXXXXXXX, NAME cut to 200 bytes so that a
 // legal 255-byte folder name still leaves room for the tag.
 const char* kStagingTag = ".iblbake-";
@@ -128,8 +153,31 @@ std::string staging_prefix(const fs::path& destination) {
     return "." + destination.filename().string().substr(0, kStagingNameMax) + kStagingTag;
 }
 
+// A staging folder's lock: held (flock) by its bake from creation to the
+// end. Another PID namespace (a container sharing the folder) sees other
+// process numbers, but the same locks.
+int lock_folder(const fs::path& dir) {
+    const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0) return -1;
+    if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        ::close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+bool lock_is_held(const fs::path& dir) {
+    const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0) return false;
+    const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+    ::close(fd);
+    return held;
+}
+
 // Staging folders (and swapped-out earlier bakes) of bakes that were killed,
-// whatever folder they were for: removed when their process no longer exists.
+// whatever folder they were for: removed when no bake holds their lock and
+// their process no longer exists here (or they are more than a day old: the
+// number was taken by another process since).
 void remove_stale_staging(const fs::path& parent) {
     static const std::regex kStaging(R"(\..*\.iblbake-([0-9]+)-[0-9a-f]{8})");
     std::error_code ec;
@@ -140,12 +188,30 @@ void remove_stale_staging(const fs::path& parent) {
         if (!std::regex_match(name, m, kStaging)) continue;
         const long pid = std::strtol(m[1].str().c_str(), nullptr, 10);
         std::error_code e2;
-        if (pid > 0 && pid != ::getpid() && !fs::exists("/proc/" + std::to_string(pid), e2) && !e2)
-            stale.push_back(it->path());
+        if (pid <= 0 || pid == ::getpid() || lock_is_held(it->path())) continue;
+        const bool gone = !fs::exists("/proc/" + std::to_string(pid), e2) && !e2;
+        const auto age = fs::file_time_type::clock::now() - fs::last_write_time(it->path(), e2);
+        if (gone || (!e2 && age > std::chrono::hours(24))) stale.push_back(it->path());
     }
     for (const fs::path& p : stale) fs::remove_all(p, ec);
 }
 }  // namespace
+
+std::string outside_staging(const std::string& text) {
+    static const std::regex kStagingName(R"(/\.([^/']{1,200})\.iblbake-[0-9]+-[0-9a-f]{8}(?=/|'|$))");
+    return std::regex_replace(text, kStagingName, "/$1");
+}
+
+void rethrow_outside_staging(const std::exception_ptr& error) {
+    try {
+        std::rethrow_exception(error);
+    } catch (const std::runtime_error& e) {
+        if (typeid(e) != typeid(std::runtime_error)) throw;  // Cancelled and other kinds pass unchanged
+        const std::string shown = outside_staging(e.what());
+        if (shown == e.what()) throw;
+        throw std::runtime_error(shown);
+    }
+}
 
 void check_replaceable(const fs::path& destination, const fs::path& keep) {
     std::error_code ec;
@@ -178,18 +244,10 @@ void check_replaceable(const fs::path& destination, const fs::path& keep) {
     if (st.type() != fs::file_type::directory)
         throw std::runtime_error("output " + quoted(dest) + " exists and is not a folder");
     if (fs::is_empty(dest, ec) && !ec) return;
-    if (!holds_a_bake(dest))
-        throw std::runtime_error("output folder " + quoted(dest) +
-                                 " exists and holds something other than an iblbake bake (no iblbake "
-                                 "manifest.json); refusing to replace it");
-    const std::vector<std::string> foreign = foreign_files(dest);
-    if (!foreign.empty()) {
-        std::string names;
-        for (size_t i = 0; i < foreign.size() && i < 3; ++i) names += (i ? ", '" : "'") + printable(foreign[i]) + "'";
-        if (foreign.size() > 3) names += " and " + std::to_string(foreign.size() - 3) + " more";
-        throw std::runtime_error("output folder " + quoted(dest) + " holds " + names +
-                                 ", which its earlier bake did not write; move it away or choose another folder");
-    }
+    const std::string why = why_kept(dest);
+    if (!why.empty())
+        throw std::runtime_error("output folder " + quoted(dest) + why +
+                                 "; refusing to replace it: move it away or choose another folder");
     // Replacing the folder removes the earlier bake's files: a read-only
     // folder would be swapped out and then left behind, undeletable.
     if (::access(dest.c_str(), W_OK | X_OK) != 0)
@@ -207,6 +265,7 @@ StagingDir::StagingDir(const fs::path& destination) : destination_(normalised(de
     staging_ = parent / (staging_prefix(destination_) + std::to_string(::getpid()) + "-" + random_suffix());
     if (!fs::create_directory(staging_, ec) || ec)
         throw std::runtime_error("cannot create " + quoted(staging_) + ": " + ec.message());
+    lock_ = lock_folder(staging_);
 }
 
 StagingDir::~StagingDir() {
@@ -214,14 +273,40 @@ StagingDir::~StagingDir() {
         std::error_code ec;
         fs::remove_all(staging_, ec);
     }
+    if (lock_ >= 0) ::close(lock_);
 }
 
 void StagingDir::commit() {
     std::error_code ec;
+    const auto changed = [&](const std::string& why) {
+        throw std::runtime_error("output folder " + quoted(destination_) + why +
+                                 " (added during the bake); it was left as it was and this bake was not written: "
+                                 "move the files away and bake again");
+    };
+    // A folder made at the destination during the bake is never replaced
+    // unseen: where it is not there, the bake is moved in only if it still is not.
+    if (!fs::exists(destination_, ec) && !fs::is_symlink(fs::symlink_status(destination_, ec)) &&
+        rename_noreplace(staging_, destination_)) {
+        committed_ = true;
+        return;
+    }
     if (fs::exists(destination_, ec)) {
         if (exchange(staging_, destination_)) {
-            fs::remove_all(staging_, ec);  // staging_ now names the old bake
+            // staging_ now names what was at the destination: checked again,
+            // since files may have been added to it while the bake ran.
+            const std::string why = why_kept(staging_);
+            if (!why.empty()) {
+                if (!exchange(staging_, destination_)) {  // put it back
+                    committed_ = true;  // never removed: the user's files are there
+                    throw std::runtime_error("output folder " + quoted(destination_) + " changed during the bake (it" +
+                                             why + "): it is now at " + quoted(staging_));
+                }
+                changed(why);
+            }
+            fs::remove_all(staging_, ec);
         } else {
+            const std::string why = why_kept(destination_);
+            if (!why.empty()) changed(why);
             // Named like a staging folder, so a kill here leaves nothing the next bake won't clean.
             const fs::path old = destination_.parent_path() /
                                  (staging_prefix(destination_) + std::to_string(::getpid()) + "-" + random_suffix());

@@ -99,6 +99,7 @@ RawPixels read_png(const std::string& path, uintmax_t file_size) {
     out.height = int(o.h);
     out.channels = o.channels;
     out.alpha_channel = o.channels == 2 || o.channels == 4 ? o.channels - 1 : -1;
+    out.straight_alpha = out.alpha_channel >= 0;  // PNG's alpha is never premultiplied
     out.is_float = false;
     out.colorspace = o.linear ? "linear" : "sRGB";
     std::vector<png_bytep>().swap(o.rows);

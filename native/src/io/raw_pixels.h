@@ -15,10 +15,12 @@ struct RawPixels {
     int full_width = 0, full_height = 0;    // display window (0: same as data)
     int x_offset = 0, y_offset = 0;         // data window origin in the display window
     int channels = 0, alpha_channel = -1;   // interleaved channels; which is alpha
+    bool straight_alpha = false;            // colour not yet multiplied by alpha (PNG); done as Cycles does
     bool is_float = true;                   // false: 8/16-bit integers normalised to [0, 1]
     std::string colorspace;                 // as the file declares it ("" if it does not)
     std::string format;                     // "openexr", "png", "hdr", ...
     FloatBuffer data;                       // width * height * channels
+    std::vector<std::string> warnings;      // what the reader chose (a layer, a part, grey)
 };
 
 // The OpenEXR reader and writer (exr_file.cpp) and the PNG writer (png_file.cpp); the writers take

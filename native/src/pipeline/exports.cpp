@@ -40,6 +40,7 @@ std::vector<ExportInput> export_inputs(const BakeResult& r, const BakePlan& plan
         in.lut = lut_of(r, plan.bake, pp.preset.lut_model);
         in.source = r.source ? &*r.source : nullptr;
         in.sh9 = r.sh9;
+        in.sun = plan.sun_light && r.sun ? &*r.sun : nullptr;
         inputs.push_back(std::move(in));
     }
     return inputs;

@@ -13,6 +13,7 @@ BakePlan make_plan(BakeOptions bo, WriteOptions wo) {
     BakePlan plan;
     plan.presets = plan_presets(bo, wo.presets);
     bo.extra = extra_outputs(bo, plan.presets);
+    plan.sun_light = bo.sun == SunMode::Split;
     plan.bake = std::move(bo);
     plan.write = std::move(wo);
     return plan;
@@ -24,6 +25,7 @@ std::vector<PresetPlan> plan_presets(const BakeOptions& bo, const std::vector<Pr
         if (p.container == Container::Env && (bo.face_size & (bo.face_size - 1)))
             throw std::invalid_argument("preset '" + p.name + "' needs a power-of-two face size (Babylon's .env), not " +
                                         std::to_string(bo.face_size));
+        check_preset_face_size(p, bo.face_size);
         plans.push_back({p, bo.face_size, preset_chain(p, bo.face_size)});
     }
     return plans;

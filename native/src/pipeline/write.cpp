@@ -14,6 +14,7 @@
 
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/export/export.h"
+#include "iblbake/export/sun.h"
 #include "iblbake/image/encode.h"
 #include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
@@ -241,6 +242,11 @@ json make_manifest(const BakeResult& r, const BakePlan& plan, const SourceInfo& 
                     {"first_level", bo.first_level},
                     {"last_level", bo.resolved_last_level()}};
     if (bo.rotation != 0.0) m["options"]["rotation_degrees"] = bo.rotation;
+    // The sun as a light (issue 27): only when asked for, so other bakes' manifests are unchanged.
+    if (plan.sun_light) {
+        m["options"]["sun"] = sun_mode_name(bo.sun);
+        m["sun"] = r.sun ? sun_json(*r.sun) : json(nullptr);
+    }
     for (const auto& [key, value] : wo.manifest_extra.items()) {
         if (m.contains(key)) throw std::invalid_argument("manifest_extra may not replace the manifest's '" + key + "'");
         m[key] = value;
@@ -395,7 +401,7 @@ void BakeWriter::computed() { impl_->computed = true; }
 void BakeWriter::wait() {
     impl_->tasks.wait();
     std::lock_guard<std::mutex> lock(impl_->mutex);
-    if (impl_->error) std::rethrow_exception(impl_->error);
+    if (impl_->error) io::rethrow_outside_staging(impl_->error);  // the user's path in the message
 }
 
 json BakeWriter::finish(const BakeResult& r, const SourceInfo& src) {
@@ -411,6 +417,15 @@ json BakeWriter::finish(const BakeResult& r, const SourceInfo& src) {
             im.poll();
             write_preview((dir / "preview.png").string(), r);
             e["preview.png"] = "srgb8";
+        });
+    // The sun as a light: sun.json (found or not) and sun.gltf (when found).
+    if (im.plan.sun_light && r.sun)
+        im.run("~sun", [&im, dir, &r](json&) {
+            im.poll();
+            io::write_text((dir / "sun.json").string(), sun_json(*r.sun).dump(2) + "\n");
+            if (r.sun->found) io::write_text((dir / "sun.gltf").string(), sun_gltf(*r.sun, "iblbake " IBLBAKE_VERSION));
+            im.hash("sun.json");
+            if (r.sun->found) im.hash("sun.gltf");
         });
     const std::vector<ExportInput> inputs = export_inputs(r, im.plan);  // the jobs refer to them
     // A preset's LUT file, like SPEC's, copied from the cache when it holds one.

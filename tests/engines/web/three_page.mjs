@@ -4,10 +4,11 @@
 import * as THREE from 'three';
 import { KTX2Loader } from 'three/addons/loaders/KTX2Loader.js';
 import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { f32ToBase64, ready, fail } from '/w/common.mjs';
 
 let renderer, scene, camera, target, size, sphereGeo;
-let envTexture = null, pmremGen = null, probe = null;
+let envTexture = null, pmremGen = null, probe = null, sun = null;
 
 function init(s) {
   size = s;
@@ -86,6 +87,31 @@ const api = {
     }
     if (kind === 'none') { setEnv(null); return {}; }
     throw new Error(`unknown env kind ${kind}`);
+  },
+  // The sun as a light (issue 27): sun.gltf through the stock GLTFLoader,
+  // its DirectionalLight added to the scene as loaded (mirrorX: the same
+  // light with its direction's x negated, a deliberately wrong export);
+  // null removes it. Returns what was loaded: colour, intensity, direction
+  // towards the light (world space), light count.
+  async setSun(opts) {
+    if (sun) { scene.remove(sun); sun = null; }
+    if (!opts) return {};
+    const gltf = await new GLTFLoader().loadAsync(opts.url);
+    const lights = [];
+    gltf.scene.traverse((o) => { if (o.isDirectionalLight) lights.push(o); });
+    gltf.scene.updateMatrixWorld(true);
+    const light = lights[0];
+    const from = light.getWorldPosition(new THREE.Vector3()), to = light.target.getWorldPosition(new THREE.Vector3());
+    const dir = from.sub(to).normalize();
+    if (opts.mirrorX) {
+      const own = new THREE.DirectionalLight(light.color.clone(), light.intensity);
+      own.position.set(-dir.x, dir.y, dir.z);
+      sun = own;
+    } else {
+      sun = gltf.scene;
+    }
+    scene.add(sun);
+    return { lights: lights.length, color: light.color.toArray(), intensity: light.intensity, direction: dir.toArray() };
   },
   // The PMREM render target's own levels, read back as float (for the report).
   setProbe(sh9) {

@@ -14,6 +14,7 @@
 #include "iblbake/ibl/brdf_lut.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/ibl/specular.h"
+#include "iblbake/ibl/sun.h"
 #include "iblbake/image/image.h"
 
 namespace iblbake {
@@ -29,6 +30,12 @@ enum class SpecularMethod {
 
 const char* specular_method_name(SpecularMethod m);
 SpecularMethod specular_method_from_name(const std::string& name);  // throws std::invalid_argument
+
+// The sun as a light (issue 27, ibl/sun.h): off, or found, taken out of the
+// environment before anything is integrated, and handed back as a light.
+enum class SunMode { Off, Split };
+const char* sun_mode_name(SunMode m);
+SunMode sun_mode_from_name(const std::string& name);  // throws std::invalid_argument
 
 // Outputs beyond SPEC's, for engine exports (pipeline/plan.h fills this from
 // the presets asked for): more specular levels, each integrated at its own
@@ -71,6 +78,10 @@ struct BakeOptions {
     // Blender's Mapping node (Point, rotation Z) turns an Environment Texture:
     // direction d shows the source's L(Rz(rotation) d).
     double rotation = 0.0;
+    // Split: the dominant compact light source (the sun) is found in the
+    // cleaned, turned source and replaced by the sky behind it; every output
+    // is baked from that sun-free source and the result holds the light.
+    SunMode sun = SunMode::Off;
     int threads = 0;                  // 0: all cores
     ExtraOutputs extra;               // for engine presets
     // The caller's warnings (an odd file, an ignored option, ...): the
@@ -118,7 +129,10 @@ struct BakeResult {
     std::vector<ExtraSpecularLevel> extra_specular;
     std::optional<Cubemap> extra_irradiance;  // when `irradiance` is off
     std::vector<std::pair<LutModel, Image>> extra_luts;
-    std::optional<Image> source;              // the cleaned source (keep_source)
+    std::optional<Image> source;              // the cleaned source (keep_source); sun-free with `sun`
+    // With SunMode::Split: the light (found or not, and why); the outputs
+    // above are the sun-free environment's.
+    std::optional<SunLight> sun;
     // Questionable input that was baked anyway (the manifest's `warnings`).
     std::vector<std::string> warnings;
 };

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "iblbake/export/preset.h"
+#include "iblbake/ibl/sun.h"
 #include "iblbake/image/image.h"
 #include "iblbake/math/sh.h"
 
@@ -40,6 +41,7 @@ struct ExportInput {
     const Image* lut = nullptr;           // preset.lut: the LUT of preset.lut_model
     const Image* source = nullptr;        // Container::Source: the cleaned source
     std::array<Sh9, 3> sh9{};             // the radiance's (SPEC section 5, not mirrored)
+    const SunLight* sun = nullptr;        // a sun found (issue 27): its light in the preset's convention, sun.json
 };
 
 // One preset's export: writes its files into `dir` / preset name and returns

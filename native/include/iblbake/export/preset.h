@@ -24,6 +24,22 @@ enum class DiffuseForm {
 // SH the manifest gives for the preset.
 enum class ShForm { None, Raw, Filament, BabylonPolynomial };
 
+// How the engine takes a directional light (the sun of issue 27, export/sun.h).
+struct PresetLight {
+    // The engine's world axes against SPEC's engine space (section 2): a
+    // left-handed engine's glTF importer mirrors one axis (Babylon z, Unity
+    // x). Not the cube's storage mirror: three and Bevy store their cubes
+    // mirrored to undo their samplers' flip, and their worlds are SPEC's.
+    Mirror world = Mirror::None;
+    // intensity = scale x E of the colour's brightest channel (colour x
+    // intensity = the illuminance per channel when scale is 1); 1 / pi where
+    // the engine's diffuse BRDF leaves out Lambert's 1 / pi.
+    double intensity_scale = 1.0;
+    std::string units;  // what the intensity is, in the engine's words
+    std::string api;    // how to make the light, with its fields named
+    bool verified = false;  // rendered against the environment in the engine tests
+};
+
 struct Preset {
     std::string name, description;
     Container container;
@@ -41,6 +57,7 @@ struct Preset {
     LutModel lut_model = LutModel::HeightCorrelated;
     bool skybox = false;       // writes a level-0-only cube as well (Filament)
     std::string lod_formula, diffuse_note, notes;
+    PresetLight light;
 };
 
 // The table (docs/export.md), in its documented order.
@@ -63,6 +80,10 @@ const char* sh_form_name(ShForm s);
 
 // Levels of the preset's chain for base face n0: n0 down to `smallest` (at
 // least one level).
+// Throws std::invalid_argument when a face of `face_size` gives the preset's
+// chain fewer than two levels (three and filament stop at 16 px: at 16 they
+// would hold the mirror level alone).
+void check_preset_face_size(const Preset& p, int face_size);
 int preset_level_count(const Preset& p, int n0);
 // Perceptual roughness of level m of the preset's chain of `levels` levels
 // with base face n0 (the inverse of the engine's lod formula).

@@ -39,6 +39,12 @@ SourceScan scan_source(ImageView img);
 // sanitize() with the scan done: cleans the scan's bad rows in place.
 void clean_bad_rows(Image& img, const SourceScan& scan);
 
+// A view of `img` whose rows `rows` (ascending) are copies in `store`, for
+// the caller to change (row k of the list at store + k * width * 3); every
+// other row is `img`'s own, through the view's row table `row_table`.
+ImageView view_with_copied_rows(ImageView img, const std::vector<int>& rows, std::vector<float>& store,
+                                std::vector<const float*>& row_table);
+
 // A view of `img` as sanitize() would leave it, without copying the image:
 // the scan's bad rows are copied into `store` and cleaned there, and the
 // view's row table (`row_table`) points every other row at `img`.

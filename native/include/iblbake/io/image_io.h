@@ -83,10 +83,14 @@ std::vector<uint8_t> encode_png8(int width, int height, int channels, const uint
 // write_png16 at zlib level 1 (the exported LUTs).
 void write_png16_fast(const std::string& path, int width, int height, int channels, FloatSpan values);
 // Radiance HDR (RGBE; run-length scanlines of literal dumps) from an RGB float image (rows top to bottom).
-void write_hdr(const std::string& path, const Image& img);
-// RGBE of one colour, as Ward's float2rgbe (exposed for tests).
-void float_to_rgbe(const float rgb[3], uint8_t out[4]);
+// Returns how many texels were clamped to RGBE's largest value (about 1.69e38).
+uint64_t write_hdr(const std::string& path, const Image& img);
+// RGBE of one colour, as Ward's float2rgbe (exposed for tests); true when it
+// was clamped to RGBE's largest value (its hue kept).
+bool float_to_rgbe(const float rgb[3], uint8_t out[4]);
 // A file of these bytes (exported containers).
 void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes);
+// A text file (JSON) of these characters.
+void write_text(const std::string& path, const std::string& text);
 
 }  // namespace iblbake::io

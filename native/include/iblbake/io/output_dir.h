@@ -2,6 +2,7 @@
 // destination and swapped in only when complete, so a failed or cancelled
 // bake never leaves a half-written folder and an earlier good bake survives.
 #pragma once
+#include <exception>
 #include <filesystem>
 #include <string>
 
@@ -12,6 +13,13 @@ namespace iblbake::io {
 // manifest.json written by iblbake); and it is neither the current folder
 // (or one above it) nor a folder that holds `keep` (the source image).
 void check_replaceable(const std::filesystem::path& destination, const std::filesystem::path& keep = {});
+
+// `text` with every staging folder's name (".NAME.iblbake-PID-XXXXXXXX")
+// replaced by the output folder it stands for (NAME): messages name the
+// user's path, not the hidden one the bake wrote into.
+std::string outside_staging(const std::string& text);
+// Rethrows `error`; a std::runtime_error's message through outside_staging().
+[[noreturn]] void rethrow_outside_staging(const std::exception_ptr& error);
 
 class StagingDir {
 public:
@@ -26,12 +34,15 @@ public:
     const std::filesystem::path& path() const { return staging_; }
     // Replace the destination by the staging folder (renameat2 RENAME_EXCHANGE
     // where the destination exists, so there is no moment without one), then
-    // remove the old folder.
+    // remove the old folder, checked again first: files added to it during
+    // the bake (or a folder made there) are swapped back and kept, and this
+    // throws.
     void commit();
 
 private:
     std::filesystem::path destination_, staging_;
     bool committed_ = false;
+    int lock_ = -1;  // flock held on the staging folder: it is not stale
 };
 
 }  // namespace iblbake::io

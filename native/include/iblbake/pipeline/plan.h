@@ -56,6 +56,10 @@ struct BakePlan {
     WriteOptions write;
     // Each preset's chain, in the order of write.presets.
     std::vector<PresetPlan> presets;
+    // The sun as a light (issue 27, bake.sun = split): the bake takes it out
+    // of the environment and the writer adds sun.json, sun.gltf (when one is
+    // found), the manifest's `sun` and each preset's light (its sun.json).
+    bool sun_light = false;
 };
 
 // Validates the bake options and checks each preset against them (e.g.
