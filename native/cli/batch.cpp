@@ -81,11 +81,16 @@ public:
                            (e.error.empty() ? "" : ": " + io::printable(e.error));
         if (tty_) {
             if (e.status == "failed") std::fprintf(stderr, "\r\033[K%s\n", line.c_str());
-            draw_locked();
         } else {
             std::printf("%s\n", line.c_str());
             std::fflush(stdout);
         }
+        // A new bake's warnings (a black world ...), on stderr as a single bake's are.
+        if (e.status == "baked")
+            for (const std::string& w : e.warnings)
+                std::fprintf(stderr, "%siblbake: warning: %s: %s\n", tty_ ? "\r\033[K" : "",
+                             io::printable(e.world.name).c_str(), io::printable(w).c_str());
+        if (tty_) draw_locked();
     }
 
 private:

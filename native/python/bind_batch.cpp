@@ -103,6 +103,7 @@ void bind_batch(pybind11::module_& m) {
                 e.error = field<std::string>(d, "error", "");
                 e.seconds = field<double>(d, "seconds", 0.0);
                 e.preview = field<bool>(d, "preview", false);
+                e.warnings = field<std::vector<std::string>>(d, "warnings", {});
                 list.push_back(std::move(e));
             }
             batch::Shard s;
@@ -115,8 +116,8 @@ void bind_batch(pybind11::module_& m) {
         },
         pybind11::arg("out"), pybind11::arg("entries"), pybind11::arg("shard") = "",
         "Write out/index.json and out/index.html (a shard of several: out/index.I-of-N.json) from entries: "
-        "dicts with name, source, status ('baked', 'unchanged', 'failed'), content_hash, error, seconds, "
-        "preview (bool).");
+        "dicts with name, source, status ('baked', 'unchanged', 'failed'), content_hash, error, warnings "
+        "(a list of str), seconds, preview (bool).");
 }
 
 }  // namespace iblbake::py

@@ -267,3 +267,59 @@ def test_the_addons_batch_core_names_shards_and_indexes_as_the_cli(lib, tmp_path
     assert [(w["name"], w["status"], w["content_hash"]) for w in idx["worlds"]][:3] == [
         ("alpha", "baked", "h-alpha"), ("beta", "unchanged", "h-beta"), ("broken", "failed", None)]
     assert idx["worlds"][2]["error"] == "cannot read it" and len(entries) == 6
+
+
+def test_sun_split_per_world(tmp_path):
+    """--sun split in a batch: each world's folder holds its own sun.json (a
+    sun found in the sky with a disc, none in the noise), each manifest says
+    so, and a second run finds both unchanged (sun.json among the checked files)."""
+    from test_sun import sun_sky
+    img, _ = sun_sky()
+    os.makedirs(str(tmp_path / "w"))
+    iblbake_core.write_exr(str(tmp_path / "w" / "sky.exr"), img)
+    world(tmp_path / "w" / "noise.exr", 3)
+    out = tmp_path / "out"
+    args = ("bake", str(tmp_path / "w"), "-o", str(out), "--sun", "split", "--face-size", "32",
+            "--irradiance-size", "8", "--lut-size", "16", "--preset", "three")
+    r = cli(*args)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert [w["status"] for w in index(out)["worlds"]] == ["baked", "baked"]
+    found = {}
+    for name in ("noise", "sky"):
+        with open(out / name / "sun.json") as f:
+            sun = json.load(f)
+        with open(out / name / "manifest.json") as f:
+            m = json.load(f)
+        assert m["options"]["sun"] == "split" and m["sun"] == sun and "sun.json" in m["files"]
+        found[name] = sun["found"]
+    assert found == {"sky": True, "noise": False}
+    assert (out / "sky" / "sun.gltf").is_file() and not (out / "noise" / "sun.gltf").exists()
+    r = cli(*args)
+    assert r.returncode == 0 and "0 baked, 2 unchanged" in r.stdout, r.stdout + r.stderr
+    # without --sun the content hash differs: both baked again, without sun.json
+    r = cli(*args[:4], *args[6:])
+    assert "2 baked, 0 unchanged" in r.stdout and not (out / "sky" / "sun.json").exists()
+
+
+def test_hostile_world_folders(lib):
+    """Issue 24's protections per world: a FIFO named manifest.json neither
+    hangs the check nor is replaced; a file added to a world's folder is kept
+    and that world fails (the others are baked); both say why."""
+    out = lib / "out"
+    src = [str(lib / "lib" / "alpha.exr"), str(lib / "lib" / "beta.exr")]
+    assert cli("bake", *src, "-o", str(out), *SMALL).returncode == 0
+    (out / "alpha" / "notes.txt").write_text("mine")
+    (out / "gamma").mkdir()
+    os.mkfifo(str(out / "gamma" / "manifest.json"))
+    world(lib / "lib" / "gamma.exr", 7)
+    start = time.monotonic()
+    r = subprocess.run([CLI, "bake", *src, str(lib / "lib" / "gamma.exr"), "-o", str(out), *SMALL, "--rotation", "10"],
+                       capture_output=True, text=True, timeout=120)
+    assert time.monotonic() - start < 60
+    assert r.returncode == 1, r.stdout + r.stderr
+    w = by_name(index(out))
+    assert w["beta"]["status"] == "baked"
+    assert w["alpha"]["status"] == "failed" and "notes.txt" in w["alpha"]["error"]
+    assert (out / "alpha" / "notes.txt").read_text() == "mine"
+    assert w["gamma"]["status"] == "failed"
+    assert os.path.exists(str(out / "gamma" / "manifest.json"))

@@ -1,5 +1,8 @@
 #include "iblbake/pipeline/batch.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cctype>
@@ -17,6 +20,7 @@
 #include <thread>
 
 #include "iblbake/io/hash.h"
+#include "iblbake/io/open_regular.h"
 #include "iblbake/io/text.h"
 #include "iblbake/pipeline/bake_file.h"
 
@@ -167,15 +171,27 @@ std::string content_hash(const std::string& source_sha256, const BakeRequest& re
     return io::sha256_bytes(text.data(), text.size());
 }
 
+namespace {
+
+constexpr size_t kMaxManifest = io::kMaxManifestBytes;
+
+// A name a manifest may list: a path inside the bake's folder (not absolute,
+// no "..", no empty or "." parts).
+bool inside(const std::string& name) {
+    if (name.empty() || name.size() > 4096 || name[0] == '/' || name.find('\0') != std::string::npos) return false;
+    for (const auto& part : fs::path(name))
+        if (part.empty() || part == "." || part == "..") return false;
+    return true;
+}
+
+}  // namespace
+
 std::optional<json> intact_manifest(const fs::path& dir) {
-    json m;
-    try {
-        std::ifstream in(dir / "manifest.json");
-        if (!in) return std::nullopt;
-        m = json::parse(in);
-    } catch (const std::exception&) {
-        return std::nullopt;
-    }
+    // Read only as a regular file, not through a link, and not without bound:
+    // a FIFO named manifest.json would hang the batch, a device never end.
+    const std::optional<std::string> text = io::read_regular_file((dir / "manifest.json").string(), kMaxManifest, false);
+    if (!text) return std::nullopt;
+    const json m = json::parse(*text, nullptr, false);
     if (!m.is_object() || !m.contains("files") || !m["files"].is_object() || m["files"].empty()) return std::nullopt;
     const json& files = m["files"];
     std::vector<std::string> listed;
@@ -197,6 +213,7 @@ std::optional<json> intact_manifest(const fs::path& dir) {
     for (const std::string& f : listed)
         if (!files.contains(f)) return std::nullopt;
     for (const auto& [name, entry] : files.items()) {
+        if (!inside(name)) return std::nullopt;  // a file outside the folder: not a bake this wrote
         try {
             const fs::path p = dir / name;
             std::error_code ec;
@@ -227,19 +244,26 @@ std::string html_escape(const std::string& s) {
     return out;
 }
 
+// Written to a new file beside `path` (created here, never one found there:
+// not through a link, not into a FIFO) and renamed over it.
 void write_atomically(const fs::path& path, const std::string& text) {
-    const fs::path tmp = path.string() + ".tmp-" + std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()));
-    {
-        std::ofstream out(tmp, std::ios::binary);
-        out << text;
-        out.flush();
-        if (!out) {
-            std::error_code ec;
-            fs::remove(tmp, ec);
-            throw std::runtime_error("cannot write " + io::printable(path.string()));
-        }
+    const fs::path tmp = path.string() + ".tmp-" + std::to_string(::getpid()) + "-" +
+                         std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()));
+    std::error_code ec;
+    fs::remove(tmp, ec);  // one left by a killed run of this process number
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    bool ok = fd >= 0;
+    for (size_t done = 0; ok && done < text.size();) {
+        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+        ok = n > 0;
+        done += ok ? size_t(n) : 0;
     }
-    fs::rename(tmp, path);
+    if (fd >= 0 && ::close(fd) != 0) ok = false;
+    if (ok) fs::rename(tmp, path, ec);
+    if (!ok || ec) {
+        fs::remove(tmp, ec);
+        throw std::runtime_error("cannot write " + io::printable(path.string()));
+    }
 }
 
 std::string gallery(const std::vector<Entry>& entries, const json& counts) {
@@ -253,6 +277,7 @@ std::string gallery(const std::vector<Entry>& entries, const json& counts) {
          ".w img{width:100%;display:block;background:#000}\n"
          ".w b{font-size:13px;color:#fff}\n"
          ".failed{background:#4a1d1d}.failed .err{color:#ff9a9a;white-space:pre-wrap}\n"
+         ".warn{color:#e8c66a}\n"
          ".unchanged .st{color:#9ac}.baked .st{color:#9c9}\n"
          "</style></head><body>\n<h1>iblbake: "
       << entries.size() << " worlds: " << counts.value("baked", 0) << " baked, " << counts.value("unchanged", 0)
@@ -275,10 +300,21 @@ std::string gallery(const std::vector<Entry>& entries, const json& counts) {
             h << " &middot; " << buf;
         }
         if (!e->error.empty()) h << "<div class=\"err\">" << html_escape(io::printable(e->error)) << "</div>";
+        for (const std::string& w : e->warnings) h << "<div class=\"warn\">" << html_escape(io::printable(w)) << "</div>";
         h << "</div>\n";
     }
     h << "</div>\n</body></html>\n";
     return h.str();
+}
+
+}  // namespace
+
+namespace {
+
+json printable_all(const std::vector<std::string>& texts) {
+    json out = json::array();
+    for (const std::string& t : texts) out.push_back(io::printable(t));
+    return out;
 }
 
 }  // namespace
@@ -294,6 +330,7 @@ void write_index(const fs::path& out, const std::vector<Entry>& entries, const S
                           {"status", e.status},
                           {"content_hash", e.content_hash.empty() ? json(nullptr) : json(e.content_hash)},
                           {"error", e.error.empty() ? json(nullptr) : json(io::printable(e.error))},
+                          {"warnings", printable_all(e.warnings)},
                           {"seconds", e.seconds},
                           {"preview", e.preview ? json(e.world.name + "/preview.png") : json(nullptr)}});
     }
@@ -358,7 +395,7 @@ std::vector<Entry> run_batch(const std::vector<World>& worlds, const fs::path& o
     };
     auto bake_one = [&](size_t k) {
         const World& w = worlds[k];
-        Entry e{w, "failed", "", "", 0.0, false};
+        Entry e{w, "failed", "", "", 0.0, false, {}};
         const fs::path dir = out / w.name;
         std::error_code ec;
         const auto start = std::chrono::steady_clock::now();
@@ -376,13 +413,15 @@ std::vector<Entry> run_batch(const std::vector<World>& worlds, const fs::path& o
             e.content_hash = content_hash(sha, with_preview);
             stage("checking", 0.0);
             const std::optional<json> old = options.force ? std::nullopt : intact_manifest(dir);
+            json m;
             if (old && old->contains("batch") && (*old)["batch"].value("content_hash", "") == e.content_hash) {
                 e.status = "unchanged";
+                m = *old;
             } else {
                 BakePlan p = plan;
                 p.write.manifest_extra["batch"] = {{"content_hash", e.content_hash}, {"name", w.name}};
                 stage("reading", 0.0);
-                bake_file(w.source, dir, p,
+                m = bake_file(w.source, dir, p,
                           [&](const std::string& s, double f) {
                               stage(s, f);
                               return keep_going();
@@ -390,6 +429,9 @@ std::vector<Entry> run_batch(const std::vector<World>& worlds, const fs::path& o
                           options.lut_cache);
                 e.status = "baked";
             }
+            if (m.contains("warnings") && m["warnings"].is_array())
+                for (const json& t : m["warnings"])
+                    if (t.is_string()) e.warnings.push_back(t.get<std::string>());
             e.preview = fs::is_regular_file(dir / "preview.png", ec);
         } catch (const Cancelled&) {
             return;  // not finished: not in the index

@@ -88,10 +88,11 @@ struct Entry {
     std::string error;
     double seconds = 0;
     bool preview = false;  // OUT/<name>/preview.png is there
+    std::vector<std::string> warnings;  // the bake's manifest's (a black world, an option that does nothing ...)
 };
 
 // OUT/index.json (every world: name, source, dir, status, content_hash,
-// error, seconds, preview; the counts; the shard) and OUT/index.html (a
+// error, warnings, seconds, preview; the counts; the shard) and OUT/index.html (a
 // gallery of the preview sheets, failures first), each written to a
 // temporary file and renamed. A shard of several writes
 // OUT/index.<I>-of-<N>.json alone (a later run without --shard, where
