@@ -60,6 +60,13 @@ class SlurmCluster:
                               "slurm-client)" % ", ".join(missing))
         try:
             self._start()
+            self._probe()
+        except Unavailable:
+            self.stop()
+            raise
+        except (OSError, subprocess.SubprocessError) as e:  # a daemon that cannot be run here at all
+            self.stop()
+            raise Unavailable("cannot start the daemons: %s: %s" % (type(e).__name__, e))
         except Exception:
             self.stop()
             raise
@@ -146,6 +153,23 @@ class SlurmCluster:
             return r.returncode == 0 and r.stdout.strip() in ("idle", "mixed", "allocated")
         self._wait(idle, 60, "the node to be idle")
 
+    def _probe(self, seconds=60):
+        """One trivial job, to the end: a node that is idle but cannot launch
+        jobs here (slurmstepd refused by the container or chroot) is a reason
+        to skip, not a failure of the bake's farm."""
+        out = os.path.join(self.dir, "probe.out")
+        r = self.run("sbatch", "--parsable", "--job-name=probe", "--output=" + out, "--wrap", "echo probe-ok")
+        if r.returncode != 0:
+            raise Unavailable("sbatch of a probe job failed: %s\n%s" % (r.stderr.strip(), self.tail()))
+
+        def done():
+            try:
+                with open(out) as f:
+                    return "probe-ok" in f.read()
+            except OSError:
+                return False
+        self._wait(lambda: done() and self.wait_for_jobs(0), seconds, "a probe job (echo) to run")
+
     def _wait(self, ready, seconds, what):
         end = time.monotonic() + seconds
         while time.monotonic() < end:
@@ -164,12 +188,13 @@ class SlurmCluster:
     def wait_for_jobs(self, seconds):
         """Until the queue is empty; False on a time-out."""
         end = time.monotonic() + seconds
-        while time.monotonic() < end:
+        while True:
             r = self.run("squeue", "-h", "-o", "%i %T")
             if r.returncode == 0 and not r.stdout.strip():
                 return True
+            if time.monotonic() >= end:
+                return False
             time.sleep(0.5)
-        return False
 
     def stop(self):
         for p in reversed(self.procs):
