@@ -20,6 +20,9 @@
 //       texel of a SIZE x SIZE LUT
 //   sun W H OUT.exr
 //       the pure-sun source: a 0.5 deg disc of 5e4 on a dim sky
+//   redsun W H OUT.exr
+//       issue 25's chromatic source: a red 0.5 deg disc of (5e4, 5e3, 0),
+//       10 deg above the horizon, in a blue sky of (0.1, 0.3, 1) at the zenith
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -157,7 +160,8 @@ int usage() {
                  "       iblbake_bench seed-specular SRC FACE SAMPLES REPS OUT.f32\n"
                  "       iblbake_bench seed-at REF.csv SRC irradiance|specular PARAM OUT.f32\n"
                  "       iblbake_bench dense-lut SIZE STRIDE N_THETA N_PHI OUT.csv\n"
-                 "       iblbake_bench sun W H OUT.exr\n");
+                 "       iblbake_bench sun W H OUT.exr\n"
+                 "       iblbake_bench redsun W H OUT.exr\n");
     return 2;
 }
 
@@ -172,6 +176,11 @@ int main(int argc, char** argv) {
         if (a.size() == 6 && a[0] == "dense-lut") return dense_lut(i(1), i(2), i(3), i(4), a[5]);
         if (a.size() == 4 && a[0] == "sun") {
             const Image img = ref::sun_source(i(1), i(2), {0.55, 0.62, 0.56}, 0.25, 5e4f, 0.5f);
+            io::write_exr(a[3], img, io::ExrPixel::Float);
+            return 0;
+        }
+        if (a.size() == 4 && a[0] == "redsun") {
+            const Image img = ref::red_sun_source(i(1), i(2), {-0.3, 0.94, 0.17}, 0.25, 5e4f, 1.0f);
             io::write_exr(a[3], img, io::ExrPixel::Float);
             return 0;
         }

@@ -94,13 +94,16 @@ main() {
   fi
 
   # --- 3. the modules ----------------------------------------------------------------
-  local src="$root/opt/src/iblbake"
-  rm -rf "$src"
-  mkdir -p "$src"
-  # This working tree's files, with their mtimes (the build folder is kept: an
-  # unchanged file is not compiled again).
+  local src="$root/opt/src/iblbake" stage="$root/opt/src/iblbake.new"
+  rm -rf "$stage"
+  mkdir -p "$stage" "$src"
+  # This working tree's files, copied by content (the build folder is kept: an
+  # unchanged file is not compiled again, a changed one always is, whichever
+  # checkout built last).
   (cd "$REPO" && git ls-files -z -co --exclude-standard | tar --null -T - --ignore-failed-read -cf - 2>/dev/null) |
-    tar -C "$src" -xf -
+    tar -C "$stage" -xf -
+  /usr/bin/python3 "$REPO/scripts/wheel/sync_tree.py" "$stage" "$src"
+  rm -rf "$stage"
   cp "$REPO/scripts/wheel/glibc_pins.h" "$root/opt/wheel/"
   local t=$SECONDS
   chroot_run "$root" "bash /opt/src/iblbake/scripts/wheel/build_modules.sh /opt/src/iblbake /opt/build /opt/deps \

@@ -450,6 +450,21 @@ LevelAccuracy level_accuracy(const std::vector<MeasureTexel>& texels, const std:
     return a;
 }
 
+ChannelAccuracy level_accuracy_rgb(const std::vector<MeasureTexel>& texels, const std::vector<Rgb>& out,
+                                   const std::vector<Rgb>& ref, int n, const Rgb& mean) {
+    ChannelAccuracy a;
+    std::vector<double> o(out.size()), r(ref.size());
+    for (int c = 0; c < 3; ++c) {
+        for (size_t k = 0; k < out.size(); ++k) o[k] = out[k][c], r[k] = ref[k][c];
+        const LevelAccuracy& l = a.channel[c] = level_accuracy(texels, o, r, n, mean[c]);
+        if (c == 0 || l.max_e > a.max_e) a.max_e = l.max_e, a.worst_channel = c;
+        a.p99_e = std::max(a.p99_e, l.p99_e);
+        a.sa_rms = std::max(a.sa_rms, l.sa_rms);
+        if (std::fabs(l.bias) > std::fabs(a.bias)) a.bias = l.bias;
+    }
+    return a;
+}
+
 Image constant_source(int w, int h, float value) {
     Image img(w, h);
     std::fill(img.pixels.begin(), img.pixels.end(), value);
@@ -478,7 +493,12 @@ Image random_smooth_source(int w, int h, unsigned seed) {
     return img;
 }
 
-Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky) {
+namespace {
+
+// A disc of radius_deg around blender_dir of radiance sun x sun_rgb on a sky
+// of sky x sky_rgb x (0.5 + 0.5 max(0, z)).
+Image disc_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, const float* sun_rgb, float sky,
+                  const float* sky_rgb) {
     Image img(w, h);
     const double cr = std::cos(radius_deg * kPi / 180);
     const Vec3d d = normalize(blender_dir);
@@ -487,10 +507,22 @@ Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, floa
             const Vec3d t = latlong_texel_direction(x, y, w, h);
             float* p = img.at(x, y);
             const float base = sky * float(0.5 + 0.5 * std::max(0.0, t.z));
-            p[0] = base; p[1] = base; p[2] = base * 1.2f;
-            if (dot(t, d) >= cr) p[0] = sun, p[1] = sun * 0.9f, p[2] = sun * 0.8f;
+            const bool in_disc = dot(t, d) >= cr;
+            for (int c = 0; c < 3; ++c) p[c] = in_disc ? sun * sun_rgb[c] : base * sky_rgb[c];
         }
     return img;
+}
+
+}  // namespace
+
+Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky) {
+    const float sun_rgb[3] = {1.0f, 0.9f, 0.8f}, sky_rgb[3] = {1.0f, 1.0f, 1.2f};
+    return disc_source(w, h, blender_dir, radius_deg, sun, sun_rgb, sky, sky_rgb);
+}
+
+Image red_sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky) {
+    const float sun_rgb[3] = {1.0f, 0.1f, 0.0f}, sky_rgb[3] = {0.1f, 0.3f, 1.0f};
+    return disc_source(w, h, blender_dir, radius_deg, sun, sun_rgb, sky, sky_rgb);
 }
 
 std::array<double, 3> mean_radiance(const Image& img) {

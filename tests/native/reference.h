@@ -1,7 +1,9 @@
 // The exhaustive reference integrator the tests measure errors against:
 // every source texel, its exact solid angle, double precision (SPEC.md 3).
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <vector>
 
 #include "iblbake/image/image.h"
@@ -103,11 +105,40 @@ struct LevelAccuracy {
 LevelAccuracy level_accuracy(const std::vector<MeasureTexel>& texels, const std::vector<double>& out,
                              const std::vector<double>& ref, int n, double mean);
 
+// Issue 25's metric, per colour channel: e_c = |out_c - ref_c| /
+// max(ref_c, floor x mean_c), mean_c the mean of channel c of L (the
+// level's), and the statistics above taken per channel, then the largest
+// over the channels (|bias| for the bias): a weak channel beside a strong one
+// is judged on its own, not hidden in the channel sum.
+struct ChannelAccuracy {
+    LevelAccuracy channel[3];  // each channel alone
+    double max_e = 0, p99_e = 0, sa_rms = 0, bias = 0;  // the worst channel's (bias: the largest |bias|, signed)
+    int worst_channel = 0;     // where max_e is
+};
+inline double texel_error_rgb(const Rgb& out, const Rgb& ref, const Rgb& mean, int* channel = nullptr) {
+    double e = -1.0;
+    for (int c = 0; c < 3; ++c) {
+        const double ec = std::fabs(out[c] - ref[c]) / std::max(ref[c], kErrorFloor * mean[c]);
+        if (ec > e) {
+            e = ec;
+            if (channel) *channel = c;
+        }
+    }
+    return e;
+}
+ChannelAccuracy level_accuracy_rgb(const std::vector<MeasureTexel>& texels, const std::vector<Rgb>& out,
+                                   const std::vector<Rgb>& ref, int n, const Rgb& mean);
+
 // Test sources (Blender lat-long).
 Image constant_source(int w, int h, float value);
 Image random_smooth_source(int w, int h, unsigned seed);  // positive, a few octaves
 // A disc of `radius_deg` and radiance `sun` around the Blender direction `dir`, on a `sky` background.
 Image sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky);
+// Issue 25's chromatic contrast: a red sun disc of `radius_deg` around the
+// Blender direction `dir`, radiance sun x (1, 0.1, 0) (no blue at all, as
+// sunset.exr's sun has next to none), in a blue sky sky x (0.1, 0.3, 1) x
+// (0.5 + 0.5 max(0, z)) (blue to red 10:1).
+Image red_sun_source(int w, int h, const Vec3d& blender_dir, double radius_deg, float sun, float sky);
 // Solid-angle-weighted mean radiance per channel (texel-constant radiance).
 std::array<double, 3> mean_radiance(const Image& img);
 // The mean of SPEC's bilinear L per channel (every level of Pre has this mean).

@@ -639,7 +639,10 @@ void bin_tree(SourceBake& b) {
     if (!need_tree) return;
     b.report("specular", b.done);
     b.r.specular_base_face = b.finest_bins;
-    b.tree = build_bin_tree(b.integrand, b.finest_bins, b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins);
+    BinTreeOptions tree_options;
+    tree_options.channel_mean = b.r.mean_radiance.data();  // the integrand's: the chroma scores' floor
+    b.tree = build_bin_tree(b.integrand, b.finest_bins, b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins,
+                            tree_options);
     b.clock.done("bin_tree");
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <utility>
 
 #include "iblbake/ibl/source.h"
@@ -14,10 +15,15 @@ namespace iblbake {
 namespace {
 
 // Fills a BinLevel row by row from exact bins: radiance centroids, powers,
-// covariances, radii.
+// covariances, radii; and the per-channel moments of the bins of varying
+// colour (kept per row until finish() numbers them).
 class LevelFiller {
 public:
-    LevelFiller(BinLevel& level, int w, int h) : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1) {
+    // chroma: the level's rows of BinTree::chroma, the first at row index first_row.
+    LevelFiller(BinLevel& level, int w, int h, const double* channel_mean, double chroma_tolerance,
+                std::vector<ChromaBin>* chroma, uint32_t first_row)
+        : L_(level), w_(w), h_(h), cphi_(2 * w + 1), sphi_(2 * w + 1), chroma_(chroma), first_row_(first_row),
+          tol_(chroma_tolerance) {
         L_.w = w;
         L_.h = h;
         L_.nodes.resize(size_t(w) * h);  // not zeroed here: row() writes every node whole
@@ -28,6 +34,8 @@ public:
             cphi_[k] = std::cos(phi);
             sphi_[k] = std::sin(phi);
         }
+        // a_c = min(1, 20 P_c / (Omega mean_c)) = min(1, a_scale_[c] P_c / Omega).
+        for (int c = 0; c < 3; ++c) a_scale_[c] = channel_mean[c] > 0.0 ? 20.0 / channel_mean[c] : 0.0;
     }
 
     void row(int y, const Bin* bins) const {
@@ -38,6 +46,7 @@ public:
             clat[r] = std::cos(lat);
             slat[r] = std::sin(lat);
         }
+        const double inv_omega = w_ / (2.0 * kPi * (slat[2] - slat[0]));  // every bin of the row
         for (int x = 0; x < w_; ++x) {
             BinNode& nd = L_.nodes[L_.index(x, y)];
             nd = BinNode{};
@@ -67,30 +76,140 @@ public:
             }
             nd.radius = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
         }
+        // Issue 25's test of every bin (bin_tree.h), apart from the loop above;
+        // the row's bins of varying colour counted first, then stored.
+        thread_local std::vector<int> varies;
+        varies.clear();
+        for (int x = 0; x < w_; ++x) {
+            const float radius = L_.nodes[L_.index(x, y)].radius;
+            if (radius >= 0.0f && colour_varies(bins[x], radius, inv_omega)) varies.push_back(x);
+        }
+        std::vector<ChromaBin>& row = chroma_[y];
+        row.assign(varies.size(), ChromaBin{});
+        for (size_t k = 0; k < varies.size(); ++k) {
+            BinNode& nd = L_.nodes[L_.index(varies[k], y)];
+            nd.chroma = (first_row_ + uint32_t(y) + 1) << 12 | uint32_t(k);
+            nd.chroma_scores = channel_moments(bins[varies[k]], nd.radius, row[k]);
+        }
     }
 
 private:
+    // a_c = min(1, 20 P_c / (Omega mean_c)).
+    double weight(int c, double power, double inv_omega) const {
+        return power > 0.0 ? std::min(1.0, a_scale_[c] * power * inv_omega) : 0.0;
+    }
+
+    // Whether max_c a_c s_c > tol, without a division or a root (every bin
+    // is tested, few pass): with P, V the sums of the channels' powers and
+    // first moments, u = P_c P, X = |V_c P - V P_c|^2 = |d|^2 u^2 and
+    // Y = ||V|^2 P_c^2 - |V_c|^2 P^2| (the traces' difference times u^2),
+    // a_c s_c u^2 = a_c (sqrt(X) u / beta + (X + Y) / (2 beta^2)).
+    bool colour_varies(const Bin& b, double beta, double inv_omega) const {
+        beta = std::max(beta, 1e-9);
+        const double ib2 = 1.0 / (beta * beta);
+        const double P = b.power[0] + b.power[1] + b.power[2];
+        const double Vx = b.vector[0][0] + b.vector[1][0] + b.vector[2][0];
+        const double Vy = b.vector[0][1] + b.vector[1][1] + b.vector[2][1];
+        const double Vz = b.vector[0][2] + b.vector[1][2] + b.vector[2][2];
+        const double vv = Vx * Vx + Vy * Vy + Vz * Vz;
+        bool varies = false;
+        for (int c = 0; c < 3; ++c) {
+            const double pc = b.power[c], a = weight(c, pc, inv_omega);
+            const double* vc = b.vector[c];
+            const double u = pc * P;
+            const double dx = vc[0] * P - Vx * pc, dy = vc[1] * P - Vy * pc, dz = vc[2] * P - Vz * pc;
+            const double X = dx * dx + dy * dy + dz * dz;
+            const double Y = std::fabs(vv * pc * pc - (vc[0] * vc[0] + vc[1] * vc[1] + vc[2] * vc[2]) * P * P);
+            const double R = tol_ * u * u - 0.5 * a * (X + Y) * ib2;  // a_c sqrt(X) u / beta > R ?
+            varies |= (a > 0.0) & ((R < 0.0) | (a * a * X * u * u * ib2 > R * R));
+        }
+        return varies;
+    }
+
+    // The scores and per-channel moments of a bin whose colour varies
+    // (bin_tree.h); out of line, so that the loops above stay lean.
+#if defined(__GNUC__)
+    __attribute__((noinline))
+#endif
+    uint32_t channel_moments(const Bin& b, double beta, ChromaBin& out) const {
+        beta = std::max(beta, 1e-9);
+        const double ib = 1.0 / beta, ib2 = 0.5 * ib * ib;
+        const double psum = b.power[0] + b.power[1] + b.power[2];
+        Vec3d m{0, 0, 0};
+        for (int c = 0; c < 3; ++c) m += Vec3d{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
+        m = m / psum;
+        const double mm = dot(m, m), trace = 1.0 - mm;
+        uint32_t scores = 0;
+        for (int c = 0; c < 3; ++c) {
+            const double pc = b.power[c];
+            const Vec3d vc{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
+            const double vl = length(vc);
+            ChromaChannel& ch = out.channel[c];
+            ch = ChromaChannel{0, 0, 1, 0, 1};
+            if (!(pc > 0.0) || !(vl > 0.0)) continue;  // no power: adds nothing
+            const Vec3d mc = vc / pc, p = vc / vl, dv = mc - m;
+            const double mcc = dot(mc, mc), d2 = dot(dv, dv);
+            const double score = std::min(1.0, std::sqrt(d2) * ib + (std::fabs(mm - mcc) + d2) * ib2);
+            scores |= uint32_t(std::ceil(score * 1023.0)) << (10 * c);
+            ch.px = float(p.x), ch.py = float(p.y), ch.pz = float(p.z);
+            ch.g = float(std::max(0.0, 1.0 - vl / pc));
+            ch.cov_scale = trace > 0.0 ? float((1.0 - mcc) / trace) : 1.0f;
+        }
+        return scores;
+    }
+
     BinLevel& L_;
     int w_, h_;
     std::vector<double> cphi_, sphi_;
+    std::vector<ChromaBin>* chroma_;  // row y's written by row(y) alone
+    uint32_t first_row_;
+    double a_scale_[3];
+    double tol_;
 };
 
-BinLevel make_level(const std::vector<Bin>& bins, int w, int h) {
-    BinLevel L;
-    const LevelFiller fill(L, w, h);
-    parallel_for(0, h, [&](int y) { fill.row(y, &bins[size_t(y) * w]); });
-    return L;
+// Mean radiance per channel (texel-constant radiance, exact solid angles).
+void channel_mean(ImageView img, double* mean) {
+    std::vector<double> rows(size_t(3) * img.height, 0.0);
+    parallel_for(0, img.height, [&](int y) {
+        const double lat0 = (0.5 - double(y + 1) / img.height) * kPi, lat1 = (0.5 - double(y) / img.height) * kPi;
+        const double om = 2.0 * kPi / img.width * (std::sin(lat1) - std::sin(lat0));
+        const float* px = img.at(0, y);
+        for (int x = 0; x < img.width; ++x)
+            for (int c = 0; c < 3; ++c) rows[size_t(3) * y + c] += px[3 * x + c];
+        for (int c = 0; c < 3; ++c) rows[size_t(3) * y + c] *= om;
+    });
+    for (int c = 0; c < 3; ++c) mean[c] = 0.0;
+    for (int y = 0; y < img.height; ++y)
+        for (int c = 0; c < 3; ++c) mean[c] += rows[size_t(3) * y + c] / (4.0 * kPi);
 }
 
 }  // namespace
 
-BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, int keep_w) {
+BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, int keep_w,
+                       const BinTreeOptions& options) {
     BinTree tree;
+    if (options.channel_mean) std::copy(options.channel_mean, options.channel_mean + 3, tree.channel_mean);
+    else channel_mean(latlong, tree.channel_mean);
+    const double* mean = tree.channel_mean;
+    const double tol = options.chroma_tolerance;
     int w = std::max(2, finest_w);
     int levels = 0;
     for (int v = w; v >= 2; v /= 2) ++levels;
     tree.levels.reserve(levels);  // the fillers below hold references into it
     std::vector<Bin> bins;
+    std::vector<std::unique_ptr<LevelFiller>> fillers;
+    // Every level's rows of bins of varying colour, level 0's first.
+    size_t rows = 0;
+    for (int v = w; v >= 2; v /= 2) rows += size_t(v / 2);
+    tree.chroma.resize(rows);
+    uint32_t first_row = 0;
+    auto add_level = [&](int lw) {
+        tree.levels.emplace_back();
+        fillers.push_back(std::make_unique<LevelFiller>(tree.levels.back(), lw, lw / 2, mean, tol,
+                                                        tree.chroma.data() + first_row, first_row));
+        first_row += uint32_t(lw / 2);
+        return fillers.back().get();
+    };
     if (w == 2) {
         bins = reduce_to_bins(latlong, 2, 1);
     } else {
@@ -99,11 +218,8 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
         // (1/4^k of level 0's, which is never whole in memory).
         const int k = w >= 8 ? 2 : 1, block = 1 << k;
         const BinReduction red(latlong, w, w / 2);
-        std::vector<LevelFiller> fillers;
-        for (int l = 0; l < k; ++l) {
-            tree.levels.emplace_back();
-            fillers.emplace_back(tree.levels.back(), w >> l, (w >> l) / 2);
-        }
+        LevelFiller* fine[2];
+        for (int l = 0; l < k; ++l) fine[l] = add_level(w >> l);
         const int kw = w >> k, kh = kw / 2;
         bins.assign(size_t(kw) * kh, Bin{});
         parallel_for(0, kh, [&](int y) {
@@ -112,7 +228,7 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
             for (int r = 0; r < block; ++r) red.row(y * block + r, &cur[size_t(r) * w]);
             int cw = w, rows = block;
             for (int l = 0; l < k; ++l) {
-                for (int r = 0; r < rows; ++r) fillers[l].row((y * block >> l) + r, &cur[size_t(r) * cw]);
+                for (int r = 0; r < rows; ++r) fine[l]->row((y * block >> l) + r, &cur[size_t(r) * cw]);
                 next.assign(size_t(rows / 2) * (cw / 2), Bin{});
                 for (int r = 0; r < rows / 2; ++r)
                     for (int x = 0; x < cw / 2; ++x)
@@ -128,10 +244,14 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
         w = kw;
     }
     while (true) {
-        if (keep && w == keep_w) *keep = bins;
-        tree.levels.push_back(make_level(bins, w, w / 2));
+        const LevelFiller* fill = add_level(w);
+        parallel_for(0, w / 2, [&](int y) { fill->row(y, &bins[size_t(y) * w]); });
+        // The kept bins are moved out once coarsened (not copied beside them).
+        std::vector<Bin> coarser;
+        if (w > 2) coarser = coarsen_bins(bins, w, w / 2);
+        if (keep && w == keep_w) *keep = std::move(bins);
         if (w <= 2) break;
-        bins = coarsen_bins(bins, w, w / 2);
+        bins = std::move(coarser);
         w /= 2;
     }
     return tree;

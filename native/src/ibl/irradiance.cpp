@@ -162,8 +162,34 @@ void convolve_cube(Cubemap& dst, const BinGroups& cloud, const HotPoints& hot) {
 
 }  // namespace
 
-BinGroups group_bins(const std::vector<Bin>& bins, int bw, int bh) {
+BinGroups group_bins(const std::vector<Bin>& bins, int bw, int bh, double bright) {
     BinGroups g;
+    // The bright bins (BinGroups::points): above `bright` x the mean power.
+    double total = 0.0;
+    for (const Bin& b : bins) total += b.power[0] + b.power[1] + b.power[2];
+    const double limit = bright * total / std::max<size_t>(1, bins.size());
+    std::vector<char> is_point(bins.size(), 0);
+    for (size_t k = 0; k < bins.size(); ++k) {
+        const Bin& b = bins[k];
+        const double p = b.power[0] + b.power[1] + b.power[2];
+        if (!(p > limit)) continue;
+        is_point[k] = 1;
+        for (int ch = 0; ch < 3; ++ch) {
+            const double pc = b.power[ch];
+            const Vec3d v{b.vector[ch][0], b.vector[ch][1], b.vector[ch][2]};
+            if (!(pc > 0.0) || !(length(v) > 0.0)) continue;
+            const Vec3d m = v / pc, d = normalize(v);
+            const double* s2 = b.second;  // the channels' sum: its spread about this channel's mean
+            const double cov[6] = {s2[0] / p - m.x * m.x, s2[1] / p - m.y * m.y, s2[2] / p - m.z * m.z,
+                                   s2[3] / p - m.x * m.y, s2[4] / p - m.x * m.z, s2[5] / p - m.y * m.z};
+            RadiancePoint q{};
+            q.dir[0] = float(d.x), q.dir[1] = float(d.y), q.dir[2] = float(d.z);
+            q.mean_dir[0] = float(m.x), q.mean_dir[1] = float(m.y), q.mean_dir[2] = float(m.z);
+            q.power[ch] = float(pc);
+            for (int i = 0; i < 6; ++i) q.cov[i] = float(cov[i]);
+            g.points.push_back(q);
+        }
+    }
     const int gw = (bw + 1) / 2, gh = (bh + 1) / 2;
     g.count = gw * gh;
     for (auto* v : {&g.cx, &g.cy, &g.cz, &g.sin_radius}) v->resize(g.count);
@@ -192,6 +218,7 @@ BinGroups group_bins(const std::vector<Bin>& bins, int bw, int bh) {
             int m = 4 * k;
             for (int y = 2 * gy; y < y1; ++y)
                 for (int x = 2 * gx; x < x1; ++x, ++m) {
+                    if (is_point[size_t(y) * bw + x]) continue;
                     const Bin& b = bins[size_t(y) * bw + x];
                     for (int ch = 0; ch < 3; ++ch) {
                         g.bx[ch][m] = float(b.vector[ch][0]), g.by[ch][m] = float(b.vector[ch][1]);
@@ -206,7 +233,9 @@ BinGroups group_bins(const std::vector<Bin>& bins, int bw, int bh) {
 
 void irradiance_convolve(Cubemap& dst, const BinGroups& cloud, const std::vector<RadiancePoint>& hot,
                          int exact_face_limit) {
-    const HotPoints points(hot);
+    std::vector<RadiancePoint> all(hot);
+    all.insert(all.end(), cloud.points.begin(), cloud.points.end());
+    const HotPoints points(all);
     if (dst.size <= exact_face_limit) {
         convolve_cube(dst, cloud, points);
         return;

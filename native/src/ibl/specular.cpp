@@ -376,7 +376,7 @@ Tile make_tile(int tile, int n, int T) {
 // next. The accepted bins' fields go into acc, structure-of-arrays, padded
 // to whole lanes with bins of no power. Returns the number accepted.
 size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, float horizon_radius,
-                   std::vector<float> (&acc)[kFields]) {
+                   std::vector<float> (&acc)[kFields], std::vector<const BinNode*>& chromatic) {
     thread_local std::vector<uint32_t> cur, next;
     thread_local std::vector<const BinNode*> accepted;
     cur.clear();
@@ -451,14 +451,261 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     const size_t count = accepted.size();
     const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
     for (auto& a : acc) a.resize(padded);
+    // The bins of varying colour among them (chroma_pass), branch-free.
+    chromatic.resize(count + 1);
+    size_t nc = 0;
     for (size_t i = 0; i < count; ++i) {
         const BinNode& nd = *accepted[i];
+        chromatic[nc] = &nd;
+        nc += nd.chroma != 0;
         acc[kernel::kPx][i] = nd.px, acc[kernel::kPy][i] = nd.py, acc[kernel::kPz][i] = nd.pz;
         acc[kernel::kG][i] = nd.g;
         for (int ch = 0; ch < 3; ++ch) acc[kernel::kP0 + ch][i] = nd.power[ch];
         for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k][i] = nd.cov[k];
     }
     for (auto& a : acc) std::fill(a.begin() + count, a.end(), 0.0f);
+    chromatic.resize(nc);
+    return count;
+}
+
+// One lobe of a group, as the chroma pass reads it.
+struct Lobe {
+    double inv_z;  // kernel sum -> output
+    Cubemap* dst;
+};
+
+// The sums over the bins in acc (padded to whole lanes here) at each texel
+// of the tile: out(i, j, num) with num[lobe][channel].
+template <typename Out>
+void sum_tile(const Tile& t, std::vector<float> (&acc)[kFields], int K, const float* a2, kernel::SumsFn sums,
+              Out out) {
+    const size_t padded = (acc[0].size() + kLanes - 1) / kLanes * kLanes;
+    for (auto& a : acc) a.resize(padded, 0.0f);
+    const float* fields[kFields];
+    for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
+    size_t k = 0;
+    for (int j = t.j0; j < t.j1; ++j)
+        for (int i = t.i0; i < t.i1; ++i, ++k) {
+            double num[kernel::kMaxLobes][3];
+            const Vec3& d = t.dirs[k];
+            sums(fields, padded, K, a2, d.x, d.y, d.z, num);
+            out(i, j, num);
+        }
+}
+
+// The estimates of chroma_pass for n bins of varying colour seen from a
+// tile, in lanes. Per lobe g, the kernel's variation across bin b,
+// dk = inv_z (k(theta - beta) - k(theta + beta)), theta = max(0, d - rho)
+// the bin's distance to the tile's nearest texel (d from the tile's centre
+// c), beta its radius, k(c) = c / t^2 (t = (1 - c)(1 - a2) + 2 a2) for
+// c > 0, else 0 (angles by their cosines and sines, those of beta by
+// series in beta / 2: under 3e-5 off up to beta = pi); per channel the
+// estimate e = score_c P_c dk, into est[(g 3 + c) n + b], and its largest
+// ratio to the limits over the lobes into key[c n + b]; the estimates
+// summed per lobe and channel in 16 fixed lanes into total. in: the bins'
+// p (x, y, z), beta, score (3), power (3), n each. Built per
+// instruction set without fused multiply-add and with the lanes fixed: the
+// same bits, so the same bins chosen, on every CPU.
+constexpr int kChromaIn = 10;
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
+#endif
+void chroma_estimates(const float* in, size_t n, float cx, float cy, float cz, float cr, float sr, int K,
+                      const float* a2, const float* inv_z, const float (*inv_limit)[3], float* est, float* key,
+                      double (*total)[3]) {
+    const float *px = in, *py = in + n, *pz = in + 2 * n, *beta = in + 3 * n;
+    const float* score = in + 4 * n;  // 3 n
+    const float* power = in + 7 * n;  // 3 n
+    for (size_t q = 0; q < 3 * n; ++q) key[q] = 0.0f;
+    thread_local std::vector<float> dkv, cbv, sbv;
+    dkv.resize(n), cbv.resize(n), sbv.resize(n);
+    float *dk = dkv.data(), *cb = cbv.data(), *sb = sbv.data();
+    for (size_t b = 0; b < n; ++b) {
+        // x = beta / 2 <= pi / 2: sin x and cos x by their series to x^9 and
+        // x^8, then cos beta = 1 - 2 sin^2 x, sin beta = 2 sin x cos x.
+        const float x = 0.5f * beta[b], x2 = x * x;
+        const float sx = x * (1.0f - x2 / 6.0f * (1.0f - x2 / 20.0f * (1.0f - x2 / 42.0f * (1.0f - x2 / 72.0f))));
+        const float cx2 = 1.0f - x2 / 2.0f * (1.0f - x2 / 12.0f * (1.0f - x2 / 30.0f * (1.0f - x2 / 56.0f)));
+        cb[b] = 1.0f - 2.0f * sx * sx;
+        sb[b] = 2.0f * sx * cx2;
+    }
+    for (int g = 0; g < K; ++g) {
+        const float s = 1.0f - a2[g], t2 = 2.0f * a2[g], iz = inv_z[g];
+        for (size_t b = 0; b < n; ++b) {
+            const float cd = std::min(1.0f, cx * px[b] + cy * py[b] + cz * pz[b]);
+            const float sd = std::sqrt(std::max(0.0f, 1.0f - cd * cd));
+            const bool inside = cd >= cr;  // d <= rho: theta = 0
+            const float ct = inside ? 1.0f : cd * cr + sd * sr, st = inside ? 0.0f : sd * cr - cd * sr;
+            const float cn = ct >= cb[b] ? 1.0f : ct * cb[b] + st * sb[b];  // theta <= beta: 0
+            const float cf = ct * cb[b] - st * sb[b];
+            const float tn = (1.0f - cn) * s + t2, tf = (1.0f - cf) * s + t2;
+            const float kn = cn > 0.0f ? cn / (tn * tn) : 0.0f, kf = cf > 0.0f ? cf / (tf * tf) : 0.0f;
+            dk[b] = (kn - kf) * iz;
+        }
+        for (int c = 0; c < 3; ++c) {
+            const float il = inv_limit[g][c];
+            const float *sc = score + size_t(c) * n, *pc = power + size_t(c) * n;
+            float* e = est + (size_t(g) * 3 + c) * n;
+            float* k = key + size_t(c) * n;
+            float lanes[16] = {};
+            size_t b = 0;
+            for (; b + 16 <= n; b += 16)
+                for (int l = 0; l < 16; ++l) {
+                    const float v = sc[b + l] * pc[b + l] * dk[b + l];
+                    e[b + l] = v;
+                    lanes[l] += v;
+                    k[b + l] = std::max(k[b + l], v * il);
+                }
+            for (; b < n; ++b) {
+                const float v = sc[b] * pc[b] * dk[b];
+                e[b] = v;
+                lanes[b % 16] += v;
+                k[b] = std::max(k[b], v * il);
+            }
+            double t = 0.0;
+            for (int l = 0; l < 16; ++l) t += lanes[l];
+            total[g][c] = t;
+        }
+    }
+}
+
+// Issue 25's second pass over a tile (bin_tree.h): the tile's texels have
+// their sums over every bin whole. A bin of varying colour can be off in
+// channel c by at most its power P_c times the kernel's variation across it,
+// dk = k(theta - beta) - k(theta + beta) at its distance theta from the
+// nearest texel (inv_z k: the output's units), and by about min(1, s_c) of
+// that (bin_tree.h's s_c: the first-order term k' n.d is dk/(2 beta) |d| at
+// most, the second-order one likewise). Bins' errors of one sign add up (a
+// sky's colour gradient puts every bin's blue above its red), so the
+// budget is per tile: while the estimates of the channels taken whole add
+// up to more than tol x the tile's least value in some channel (at least
+// 0.05 x the channel's mean, the metric's floor), the (bin, channel) pair
+// with the largest estimate against that bound is taken on its own
+// instead: the channel summed with its power and its own moments, the bin
+// with that channel's power negated, added to each texel. The pairs are
+// taken in buckets of the binary exponent of that ratio, largest first
+// (within a factor 2 of the largest-first order, with no sort). tol 0:
+// every channel of every bin of varying colour. Measured and refused:
+// sub-tiles of 4 x 4 texels with their own budgets (fewer bins, more time),
+// a cap on the pairs per tile, signs or quadrature for far or weak bins
+// (issue 25: each left a source over 1 %, or saved under 7 %).
+// Returns the number of bins summed per texel.
+size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const BinNode*>& chromatic,
+                   const Lobe* lobes, int K, const float* a2, double tol, kernel::SumsFn sums) {
+    double limit[kernel::kMaxLobes][3];
+    float inv_limit[kernel::kMaxLobes][3];
+    for (int g = 0; g < K; ++g) {
+        float least[3] = {INFINITY, INFINITY, INFINITY};
+        for (int j = t.j0; j < t.j1; ++j)
+            for (int i = t.i0; i < t.i1; ++i) {
+                const float* o = lobes[g].dst->at(t.face, i, j);
+                for (int c = 0; c < 3; ++c) least[c] = std::min(least[c], o[c]);
+            }
+        // Rounded down to an eighth of an octave: the limits, and so the
+        // bins chosen, do not follow the sums' last bits (which differ
+        // between the kernels of different instruction sets).
+        for (int c = 0; c < 3; ++c) {
+            int e = 0;
+            const double m = std::frexp(std::max(0.05 * tree.channel_mean[c], double(least[c])), &e);
+            limit[g][c] = tol * std::ldexp(std::floor(m * 16.0) / 16.0, e);
+            inv_limit[g][c] = float(1.0 / limit[g][c]);
+        }
+    }
+    // Each bin's estimates per lobe and channel (in lanes), their totals,
+    // and the (bin, channel) pairs by their largest estimate against the
+    // limits, in buckets of its binary exponent.
+    const size_t n = chromatic.size();
+    thread_local std::vector<float> in, est, key;
+    thread_local std::vector<uint32_t> bucket_of, order;
+    in.resize(kChromaIn * n);
+    est.resize(size_t(K) * 3 * n);
+    key.resize(3 * n);
+    for (size_t b = 0; b < n; ++b) {
+        const BinNode* nd = chromatic[b];
+        in[b] = nd->px, in[n + b] = nd->py, in[2 * n + b] = nd->pz, in[3 * n + b] = nd->radius;
+        for (int c = 0; c < 3; ++c) in[(4 + c) * n + b] = nd->chroma_score(c), in[(7 + c) * n + b] = nd->power[c];
+    }
+    float inv_z[kernel::kMaxLobes];
+    for (int g = 0; g < K; ++g) inv_z[g] = float(lobes[g].inv_z);
+    double total[kernel::kMaxLobes][3] = {};
+    chroma_estimates(in.data(), n, t.c.x, t.c.y, t.c.z, std::cos(t.rho), std::sin(t.rho), K, a2, inv_z, inv_limit,
+                     est.data(), key.data(), total);
+    auto over = [&] {
+        for (int g = 0; g < K; ++g)
+            for (int c = 0; c < 3; ++c)
+                if (total[g][c] > limit[g][c]) return true;
+        return false;
+    };
+    if (!over()) return 0;
+    // The (bin, channel) pairs by bucket, largest first (in order of index within one).
+    uint32_t count_in[256] = {};
+    bucket_of.resize(3 * n);
+    for (size_t q = 0; q < 3 * n; ++q) {
+        uint32_t bits;
+        std::memcpy(&bits, &key[q], sizeof(bits));
+        bucket_of[q] = key[q] > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
+        ++count_in[bucket_of[q]];
+    }
+    uint32_t start[256];
+    uint32_t sum = 0;
+    for (int k = 255; k >= 1; --k) start[k] = sum, sum += count_in[k];
+    order.resize(sum);
+    for (size_t q = 0; q < 3 * n; ++q)
+        if (bucket_of[q]) order[start[bucket_of[q]]++] = uint32_t(q);  // q = c n + b
+    thread_local std::vector<uint8_t> taken;  // per bin: its channels taken on their own (bits)
+    taken.assign(n, 0);
+    for (const uint32_t q : order) {
+        if (!over()) break;
+        const int c = int(q >= n) + int(q >= 2 * n);  // q = c n + b
+        const size_t b = q - size_t(c) * n;
+        for (int g = 0; g < K; ++g) total[g][c] -= est[(size_t(g) * 3 + c) * n + b];
+        if (!taken[b]) __builtin_prefetch(&tree.chroma_of(*chromatic[b]));  // read below
+        taken[b] |= uint8_t(1u << c);
+    }
+    // The entries: per bin taken, its taken channels' power negated (with
+    // the bin's moments), then each taken channel alone (its own); written
+    // in place, padded to whole lanes with zeros.
+    size_t count = 0;
+    for (size_t b = 0; b < n; ++b) count += taken[b] ? 1 + size_t(__builtin_popcount(taken[b])) : 0;
+    const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
+    thread_local std::vector<float> acc[kFields];
+    float* f[kFields];
+    for (int k = 0; k < kFields; ++k) {
+        acc[k].resize(padded);
+        f[k] = acc[k].data();
+    }
+    size_t e = 0;
+    auto put = [&](const float* p, float g, const float* cov, float cov_scale) {  // no power yet
+        f[kernel::kPx][e] = p[0], f[kernel::kPy][e] = p[1], f[kernel::kPz][e] = p[2];
+        f[kernel::kG][e] = g;
+        for (int c = 0; c < 3; ++c) f[kernel::kP0 + c][e] = 0.0f;
+        for (int k = 0; k < 6; ++k) f[kernel::kCxx + k][e] = cov[k] * cov_scale;
+        ++e;
+    };
+    for (size_t b = 0; b < n; ++b) {
+        const unsigned tk = taken[b];
+        if (!tk) continue;
+        const BinNode* nd = chromatic[b];
+        const ChromaBin& cb = tree.chroma_of(*nd);
+        const float p[3] = {nd->px, nd->py, nd->pz};
+        put(p, nd->g, nd->cov, 1.0f);
+        for (int c = 0; c < 3; ++c)
+            if (tk >> c & 1u) f[kernel::kP0 + c][e - 1] = -nd->power[c];
+        for (int c = 0; c < 3; ++c) {
+            if (!(tk >> c & 1u)) continue;
+            const ChromaChannel& ch = cb.channel[c];
+            const float cp[3] = {ch.px, ch.py, ch.pz};
+            put(cp, ch.g, nd->cov, ch.cov_scale);
+            f[kernel::kP0 + c][e - 1] = nd->power[c];
+        }
+    }
+    for (int k = 0; k < kFields; ++k) std::fill(f[k] + count, f[k] + padded, 0.0f);
+    sum_tile(t, acc, K, a2, sums, [&](int i, int j, const double (*num)[3]) {
+        for (int g = 0; g < K; ++g) {
+            float* o = lobes[g].dst->at(t.face, i, j);
+            for (int ch = 0; ch < 3; ++ch) o[ch] = float(o[ch] + num[g][ch] * lobes[g].inv_z);
+        }
+    });
     return count;
 }
 
@@ -525,24 +772,21 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
     const int T = std::max(1, std::min(tile, n / 4));
     const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
     std::vector<double> used(tiles, 0.0);
+    Lobe lobes[kernel::kMaxLobes];
+    for (int k = 0; k < K; ++k) lobes[k] = {inv_z[k], targets[k].dst};
     parallel_for(0, tiles, [&](int tile) {
         const Tile t = make_tile(tile, n, T);
         thread_local std::vector<float> acc[kFields];
-        used[tile] = double(gather_bins(tree, t, scale, eps, horizon_radius, acc));
-        const size_t padded = acc[0].size();
-        const float* fields[kFields];
-        for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
-        size_t k = 0;
-        for (int j = t.j0; j < t.j1; ++j)
-            for (int i = t.i0; i < t.i1; ++i, ++k) {
-                double num[kernel::kMaxLobes][3];
-                const Vec3& d = t.dirs[k];
-                sums(fields, padded, K, a2, d.x, d.y, d.z, num);
-                for (int g = 0; g < K; ++g) {
-                    float* o = targets[g].dst->at(t.face, i, j);
-                    for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[g][ch] * inv_z[g]);
-                }
+        thread_local std::vector<const BinNode*> chromatic;
+        used[tile] = double(gather_bins(tree, t, scale, eps, horizon_radius, acc, chromatic));
+        sum_tile(t, acc, K, a2, sums, [&](int i, int j, const double (*num)[3]) {
+            for (int g = 0; g < K; ++g) {
+                float* o = targets[g].dst->at(t.face, i, j);
+                for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[g][ch] * inv_z[g]);
             }
+        });
+        if (!chromatic.empty() && q.chroma >= 0.0)
+            used[tile] += double(chroma_pass(tree, t, chromatic, lobes, K, a2, q.chroma, sums));
     });
     double total = 0.0;
     for (double u : used) total += u;

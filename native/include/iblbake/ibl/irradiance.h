@@ -17,8 +17,13 @@ struct BinGroups {
     std::vector<float> cx, cy, cz, sin_radius;  // per group; sin_radius 2: always summed bin by bin
     std::vector<float> vx[3], vy[3], vz[3];       // per group, per channel: the sum of its bins' V
     std::vector<float> bx[3], by[3], bz[3];       // per bin, four per group (missing bins zero)
+    // Bins brighter than `bright` x the mean bin's power, taken out of the
+    // above and kept as points, one per channel (mean direction V_c / P_c,
+    // the covariance of w about it): irradiance_convolve treats them as the
+    // hot texels (issue 25: a low sun's aureole across a texel's horizon).
+    std::vector<RadiancePoint> points;
 };
-BinGroups group_bins(const std::vector<Bin>& bins, int bw, int bh);
+BinGroups group_bins(const std::vector<Bin>& bins, int bw, int bh, double bright = 16.0);
 
 // Exact cosine convolution of the bins and of the hot texels' points: every
 // output texel sums (1/pi) max(0, n.V_c) over the bins, the exact integral

@@ -53,6 +53,15 @@ struct HierarchicalQuality {
     // worst texel only from 0.29 % to 0.22 % on sunset.exr; measured).
     double finest_eps = 0.5;
     double horizon = 0.05;     // bins that may straddle a texel's horizon: radius <= eps horizon / sqrt(D(45 deg) / Z)
+    // Bins of varying colour (bin_tree.h's ChromaBin) have their channels
+    // taken on their own, largest estimated error first, while the errors
+    // of those taken whole add up to more than this times a tile's least
+    // value in some channel (at least 0.05 x the channel's mean, the
+    // metric's floor); 0: every one, negative: none. 0.01: measured (issue
+    // 25, docs/benchmarks.md): 11 sources within 0.86 % per channel; 0.02
+    // left the red sun at 1.6 % (r = 0.125), 0.005 cost 1.5x to 2x the
+    // extra bins.
+    double chroma = 0.01;
 };
 
 // Level for roughness r > 0 by a hierarchical (Barnes-Hut) kernel sum over a
@@ -62,10 +71,12 @@ struct HierarchicalQuality {
 // Each bin is integrated by a second-order rule from its radiance's moments
 // (mean m and covariance C of w):
 //   Pre(n) = sum_b P_b [k(n.m_b) + k''(n.m_b) n^T C_b n / 2] / Z,
-// with Z the kernel's integral in closed form. The result is a deterministic
+// with Z the kernel's integral in closed form; a bin whose colour varies
+// (bin_tree.h) is taken channel by channel, each with its own moments,
+// where that matters (HierarchicalQuality::chroma). The result is a deterministic
 // quadrature of SPEC.md's integral over the bilinear L whose error is set
 // by eps, with no sampling noise and no clamping.
-// Returns the mean number of bins per texel.
+// Returns the mean number of bins per texel (the chroma pass's included).
 double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {});
 
 // Up to four levels of one face size in one pass (engine presets bake levels
