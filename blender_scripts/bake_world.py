@@ -4,8 +4,9 @@
       the open file's scene world -> DIR
   blender -b --factory-startup --python blender_scripts/bake_world.py -- --hdri world.exr --out DIR
       an HDRI file, set up as the world's Environment Texture -> DIR
-  blender -b --factory-startup --python blender_scripts/bake_world.py -- --batch a.blend b.hdr ... --out DIR
-      each .blend file's world, or each image as a world -> DIR/<name>
+  blender -b --factory-startup --python blender_scripts/bake_world.py -- --batch a.blend b.hdr DIR/ ... --out OUT
+      each .blend file's world, or each image as a world -> OUT/<name>, with OUT/index.json and index.html
+      (--list FILE: sources from a file; --shard I/N: every N-th world, for a farm; docs/farm.md)
 
 Exits 1 with the reason on stderr when any bake fails (a batch bakes the
 others first); an earlier bake in a folder survives a failed one. A bake
@@ -20,8 +21,6 @@ import time
 from pathlib import Path
 
 import bpy
-
-BLEND_SUFFIXES = (".blend",)
 
 
 class Usage(Exception):
@@ -76,7 +75,11 @@ def parse_args(argv):
     p.add_argument("--out", required=True, help="output folder (a batch: the parent of one folder per input)")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--hdri", help="bake this image as the world instead of the open file's world")
-    src.add_argument("--batch", nargs="+", metavar="FILE", help=".blend files and/or images, one bake each")
+    src.add_argument("--batch", nargs="*", metavar="FILE",
+                     help=".blend files, images and folders of them, one bake each into OUT/<name>/")
+    p.add_argument("--list", action="append", metavar="FILE",
+                   help="--batch: a file naming sources, one a line ('#' comments); repeatable")
+    p.add_argument("--shard", metavar="I/N", default="", help="--batch: bake worlds I, I+N, ... (0 <= I < N)")
     p.add_argument("--scene", help="scene to bake (default: the active one)")
     p.add_argument("--strength", type=finite, default=1.0, help="--hdri/--batch images: Background Strength")
     p.add_argument("--rotation-z", type=finite, default=0.0, help="--hdri/--batch images: Mapping rotation, degrees")
@@ -102,6 +105,10 @@ def parse_args(argv):
         p.add_argument(flag, dest=name, type=option_arg(row),
                        help="%s%s (default %s)" % (row["help"], names, default or "none"), **extra)
     args = p.parse_args(argv)
+    if (args.list or args.shard) and args.batch is None:
+        raise Usage("--list and --shard go with --batch")
+    if args.batch == [] and not args.list:
+        raise Usage("--batch needs files or folders, or --list FILE")
     for row in table.rows():  # a list given several times: one list
         value = getattr(args, row["name"])
         if row["kind"] == "list" and value is not None:
@@ -184,19 +191,35 @@ def bake_scene(args, out_dir: str, image=None):
     if "FINISHED" not in result:
         raise RuntimeError(scene.iblbake.last_error or "the bake did not finish")
     print("iblbake: %s" % scene.iblbake.last_status, flush=True)
+    last = addon_module("state").last(scene.name)
+    return last.outcome or "baked", last.content_hash
 
 
-def batch_folders(items, out):
-    """One output folder per input, named after its stem; two inputs of one
-    name would overwrite each other, so that is refused up front."""
-    folders = {}
-    for item in items:
-        stem = Path(item).stem
-        if stem in folders:
-            raise Usage("two inputs would bake into %s: %s and %s (rename one, or bake them separately)"
-                        % (os.path.join(out, stem), folders[stem], item))
-        folders[stem] = item
-    return [(item, os.path.join(out, stem)) for stem, item in folders.items()]
+def run_batch(args):
+    """The CLI's batch machinery (core/batch.py over iblbake_core): the same
+    worlds, folder names, shards and index; each world baked through Blender.
+    Returns the failures."""
+    batch = addon_module("core.batch")
+    if args.preview is None:
+        args.preview = True  # the index's gallery shows each world's preview sheet
+
+    def bake_one(world):
+        item = world["source"]
+        if item.lower().endswith(batch.BLEND_SUFFIX):
+            if not os.path.isfile(item):
+                raise RuntimeError("no .blend file at %s" % item)
+            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(item))
+            return bake_scene(args, os.path.join(args.out, world["name"]))
+        bpy.ops.wm.read_homefile(use_empty=True)
+        return bake_scene(args, os.path.join(args.out, world["name"]), image=item)
+
+    start = time.perf_counter()
+    worlds = batch.worlds(args.batch, args.list or [], args.shard)
+    entries = batch.run(worlds, args.out, bake_one, args.shard, log=lambda line: print("iblbake: " + line, flush=True))
+    count = {s: sum(e["status"] == s for e in entries) for s in ("baked", "unchanged", "failed")}
+    print("iblbake: batch: %(baked)d baked, %(unchanged)d unchanged, %(failed)d failed" % count
+          + " of %d worlds in %.1f s" % (len(entries), time.perf_counter() - start), flush=True)
+    return [(e["source"], e["error"]) for e in entries if e["status"] == "failed"]
 
 
 def main(argv):
@@ -204,22 +227,8 @@ def main(argv):
     args = parse_args(argv)
     args.out = os.path.expanduser(args.out)  # a quoted '~/x' is the user's folder, as the shell would have made it
     failures = []
-    if args.batch:
-        for item, out in batch_folders(args.batch, args.out):
-            start = time.perf_counter()
-            try:
-                if item.lower().endswith(BLEND_SUFFIXES):
-                    if not os.path.isfile(item):
-                        raise RuntimeError("no .blend file at %s" % item)
-                    bpy.ops.wm.open_mainfile(filepath=os.path.abspath(item))
-                    bake_scene(args, out)
-                else:
-                    bpy.ops.wm.read_homefile(use_empty=True)
-                    bake_scene(args, out, image=item)
-                print("iblbake: %s done in %.2f s" % (item, time.perf_counter() - start), flush=True)
-            except Exception as e:  # keep going; report every failure at the end
-                failures.append((item, str(e)))
-                print("iblbake: error: %s: %s" % (item, e), file=sys.stderr, flush=True)
+    if args.batch is not None:
+        failures = run_batch(args)
     else:
         try:
             bake_scene(args, args.out, image=args.hdri)

@@ -36,6 +36,8 @@ BLENDER=(blender blender-data)
 # which Debian's blender package does not depend on.
 [ "$RELEASE" != sid ] || BLENDER+=(python3-cattr python3-requests)
 GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
+# docs/farm.md's sbatch array on a one-node Slurm (tests/farm, CTest farm_slurm, run as root)
+FARM=(munge slurmctld slurmd slurm-client)
 EXPORT=(libzstd-dev python3-zstandard)
 # scripts/package.sh and check_wheels.sh: Debian chroots; the wheels read by pip and python3-wheel
 PACKAGING=(debootstrap zstd binutils python3-pip python3-wheel)
@@ -46,7 +48,7 @@ BROWSER=(chromium)
 command -v npm >/dev/null 2>&1 || BROWSER+=(nodejs npm)
 
 PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${HOSTILE[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BENCH[@]}" "${BLENDER[@]}" "${GUI[@]}"
-          "${EXPORT[@]}" "${PACKAGING[@]}" "${BROWSER[@]}")
+          "${FARM[@]}" "${EXPORT[@]}" "${PACKAGING[@]}" "${BROWSER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do

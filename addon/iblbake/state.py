@@ -28,6 +28,8 @@ class Last:
     error: str = ""
     out_dir: str = ""
     thumbnail: object = None       # preview.png's small sRGB RGBA copy for the panel (describe.thumbnail), or None
+    content_hash: str = ""
+    outcome: str = ""              # the report's status: "baked" or "unchanged" (bake_world.py --batch)
     stages: List[Tuple[str, float]] = field(default_factory=list)  # what the user waited for, in seconds
     note: str = ""                 # a line of its own below the status (no file manager: where the files are)
     sun: Optional[dict] = None     # the manifest's `sun` (a bake with sun="split"), else None
@@ -59,7 +61,8 @@ def set_baked(scene_name: str, report, stages=()):
         old.thumbnail if old.out_dir == report.out_dir else None)  # unchanged: the same sheet
     manifest = report.manifest or describe.manifest_of(report.out_dir) or {}
     set_last(scene_name, Last(status=report.summary(), kind="INFO", out_dir=report.out_dir, thumbnail=thumbnail,
-                              stages=list(stages), sun=manifest.get("sun")))
+                              content_hash=report.content_hash, outcome=report.status, stages=list(stages),
+                              sun=manifest.get("sun")))
     redraw(images=True)
 
 

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "batch.h"
 #include "iblbake/export/export.h"
 #include "iblbake/io/text.h"
 #include "iblbake/pipeline/bake_file.h"
@@ -168,12 +169,16 @@ int main(int argc, char** argv) {
     app.add_flag("--list-presets", list_presets, "print the engine presets and exit");
     app.require_subcommand(0, 1);
 
+    std::vector<std::string> sources;  // one file: a single bake; more, a folder or --list: a batch (cli/batch.h)
     std::string source, outdir;
+    cli::BatchArgs batch;
     bool quiet = false, no_cache = false;
     std::string cache_dir = FileLutCache::default_dir().string();
 
     CLI::App* bake = app.add_subcommand("bake", "bake SOURCE into the files of SPEC.md in OUTDIR");
-    bake->add_option("source", source, "lat-long source image (EXR, HDR, PNG, JPEG, ...)")->required();
+    bake->add_option("source", sources,
+                     "lat-long source image (EXR, HDR, PNG, JPEG, ...); several, or folders: a batch, each world "
+                     "into OUTDIR/<name>/ (docs/cli.md)");
     bake->add_option("-o,--output", outdir, "output folder; replaced atomically when the bake completes")->required();
     // Every option of the bake, from the one table (pipeline/options.h): the
     // text each was given, set in the table's order after parsing.
@@ -211,6 +216,7 @@ int main(int argc, char** argv) {
     bake->add_option("--cache-dir", cache_dir, "where BRDF LUTs are cached for reuse")->capture_default_str();
     bake->add_flag("--no-cache", no_cache, "neither read nor write the LUT cache");
     bake->add_flag("-q,--quiet", quiet, "print nothing on success");
+    cli::add_batch_args(bake, batch);
 
     CLI::App* presets_cmd = app.add_subcommand("presets", "print the engine presets (docs/export.md)");
 
@@ -248,6 +254,13 @@ int main(int argc, char** argv) {
         }
         BakeRequest request;
         apply_options(request, given, [](const OptionSpec& s) { return s.cli_flag(); });
+        if (sources.empty() && batch.lists.empty())
+            throw std::invalid_argument("source is required (see iblbake bake --help)");
+        if (cli::is_batch(sources, batch)) {
+            FileLutCache cache(cache_dir);
+            return cli::run_batch(sources, outdir, request, batch, no_cache ? nullptr : &cache, quiet);
+        }
+        source = sources.front();
         const BakePlan plan = make_plan(request.bake, request.write);
 
         FileLutCache cache(cache_dir);

@@ -158,9 +158,13 @@ ProgressFn wrap_progress(const pybind11::object& cb) {
     };
 }
 
+}  // namespace
+
 pybind11::object json_to_py(const nlohmann::json& j) {
     return pybind11::module_::import("json").attr("loads")(j.dump());
 }
+
+namespace {
 
 pybind11::dict result_dict(const BakeResult& r) {
     pybind11::dict d;
@@ -189,6 +193,8 @@ pybind11::dict result_dict(const BakeResult& r) {
     return d;
 }
 
+}  // namespace
+
 // A path argument: str, os.PathLike or bytes (file system encoding, so a
 // name that is not UTF-8 round-trips); anything else is a TypeError.
 std::string path_arg(const pybind11::handle& v, const char* what) {
@@ -199,6 +205,8 @@ std::string path_arg(const pybind11::handle& v, const char* what) {
                                    std::string(pybind11::str(pybind11::type::of(v).attr("__name__"))));
     return os.attr("fsencode")(v).cast<std::string>();
 }
+
+namespace {
 
 // bake() and bake_constant()'s out_dir: "" for none; checked with the GIL
 // held, before any work, so that a refused folder costs nothing.

@@ -20,4 +20,5 @@ PYBIND11_MODULE(iblbake_core, m) {
     });
     iblbake::py::bind_bake(m);
     iblbake::py::bind_geometry(m);
+    iblbake::py::bind_batch(m);
 }

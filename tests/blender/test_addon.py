@@ -184,6 +184,23 @@ def test_batch_over_blend_files_and_images(case, tmp_path):
     assert manifest(out / "scene")["blender"]["strength"] == 2.0
     assert manifest(out / "forest")["blender"]["image"]["name"] == "forest.exr"
     assert not (out / "missing").exists()
+    # the CLI's batch machinery: its names, its index and gallery, the preview sheets on
+    with open(out / "index.json") as f:
+        idx = json.load(f)
+    assert [(w["name"], w["status"]) for w in idx["worlds"]] == [
+        ("scene", "baked"), ("forest", "baked"), ("missing", "failed")]
+    assert idx["worlds"][1]["content_hash"] == manifest(out / "forest")["blender"]["content_hash"]
+    assert "no image file at" in idx["worlds"][2]["error"]
+    assert (out / "forest" / "preview.png").is_file() and 'src="forest/preview.png"' in (out / "index.html").read_text()
+    # again, from a list file and one shard of two: forest alone, unchanged
+    lst = tmp_path / "worlds.txt"
+    lst.write_text("# two worlds\n%s\n%s\n" % (blend, FOREST))
+    p = bake_world("--batch", "--list", str(lst), "--shard", "1/2", "--out", str(out), "--face-size", "16",
+                   "--lut-size", "16")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "[1/1] unchanged forest" in p.stdout
+    with open(out / "index.1-of-2.json") as f:
+        assert [(w["name"], w["status"]) for w in json.load(f)["worlds"]] == [("forest", "unchanged")]
     # The open-file form: blender -b file.blend --python bake_world.py -- --out DIR
     p = run_blender([blend, "--python", BAKE_WORLD, "--", "--out", str(tmp_path / "one"), "--face-size", "16"])
     assert p.returncode == 0, p.stdout + p.stderr

@@ -230,6 +230,20 @@ def test_bake_files_are_listed_with_sizes_and_levels_grouped(tmp_path):
     assert D.bake_files(str(tmp_path / "missing")) == ([], 0)
 
 
+def test_a_manifest_is_read_only_as_a_regular_file(tmp_path):
+    """describe.manifest_of (the panel, Add Sun Lamp): a FIFO named
+    manifest.json never hangs Blender, a link is not followed."""
+    for name in ("fifo", "link", "good"):
+        (tmp_path / name).mkdir()
+    (tmp_path / "good" / "manifest.json").write_text('{"sun": null}')
+    os.mkfifo(str(tmp_path / "fifo" / "manifest.json"))
+    os.symlink(str(tmp_path / "good" / "manifest.json"), str(tmp_path / "link" / "manifest.json"))
+    assert D.manifest_of(str(tmp_path / "good")) == {"sun": None}
+    assert D.manifest_of(str(tmp_path / "fifo")) is None
+    assert D.manifest_of(str(tmp_path / "link")) is None
+    assert D.manifest_of(str(tmp_path / "missing")) is None
+
+
 def test_file_read_off_the_main_thread_matches_blenders_pixels(tmp_path):
     """The Environment Texture's file read by the native reader is what
     Blender's buffer gives, after the nodes (here Strength); a file whose

@@ -15,7 +15,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 CLI = os.environ.get("IBLBAKE_CLI", os.path.join(HERE, "..", "..", "build", "native", "iblbake"))
 ROWS = ib.options()
 # What the CLI has that is not an option of the bake: its call's own arguments.
-CLI_OWN = {"--help", "--output", "--cache-dir", "--no-cache", "--quiet"}
+CLI_OWN = {"--help", "--output", "--cache-dir", "--no-cache", "--quiet",
+           "--list", "--jobs", "--shard", "--force"}  # the batch's own (cli/batch.h)
 
 
 def cli_flags():

@@ -2,10 +2,13 @@
 path shortened in the middle, file lists and sizes."""
 import json
 import os
+import stat
 from typing import List, Optional, Tuple
 
 from . import options
 from .needs import Needs
+
+MAX_MANIFEST_BYTES = 64 << 20  # as the core's io::kMaxManifestBytes
 
 
 def _levels(n: int) -> str:
@@ -112,9 +115,22 @@ def bake_files(out_dir: str) -> Tuple[List[Tuple[str, int]], int]:
 
 
 def manifest_of(out_dir: str) -> Optional[dict]:
+    """A bake's manifest.json, read as the core reads it: only a regular
+    file, not through a link, without blocking (a FIFO named so would hang
+    Blender), at most 64 MB; None otherwise."""
     try:
-        with open(os.path.join(out_dir, "manifest.json")) as f:
-            return json.load(f)
+        fd = os.open(os.path.join(out_dir, "manifest.json"),
+                     os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except OSError:
+        return None
+    try:
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                return None
+            text = f.read(MAX_MANIFEST_BYTES + 1)
+            if len(text) > MAX_MANIFEST_BYTES:
+                return None
+            return json.loads(text)
     except (OSError, ValueError):
         return None
 

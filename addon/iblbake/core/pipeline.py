@@ -133,36 +133,10 @@ def existing_hash(out_dir: str) -> Optional[str]:
     """The content hash of the complete, intact bake in out_dir, if there is
     one: every file the manifest lists (`files`: size and sha256) must be
     there with its size and sha256, so a truncated or damaged output is baked
-    again, never kept as "unchanged". A manifest without `files` (an older
-    bake) is not trusted."""
-    try:
-        with open(os.path.join(out_dir, "manifest.json")) as f:
-            m = json.load(f)
-    except (OSError, ValueError):
-        return None
-    if not isinstance(m, dict):
-        return None
-    files = m.get("files")
-    if not isinstance(files, dict) or not files:
-        return None
-    listed = [e.get("file") for e in m.get("specular") or [] if isinstance(e, dict)]
-    for key in ("irradiance", "brdf_lut"):
-        if isinstance(m.get(key), dict):
-            listed.append(m[key].get("file"))
-    for preset in (m.get("presets") or {}).values():  # each engine preset's folder
-        if isinstance(preset, dict):
-            listed.extend(os.path.join(preset.get("dir", ""), f).replace(os.sep, "/")
-                          for f in (preset.get("files") or {}).values() if isinstance(f, str))
-    if any(f not in files for f in listed):
-        return None
-    for name, entry in files.items():
-        path = os.path.join(out_dir, name)
-        try:
-            if os.path.getsize(path) != entry["bytes"] or file_sha256(path) != entry["sha256"]:
-                return None
-        except (OSError, KeyError, TypeError):
-            return None
-    return (m.get("blender") or {}).get("content_hash")
+    again, never kept as "unchanged" (iblbake_core.intact_manifest, the CLI's
+    batch's check). A manifest without `files` (an older bake) is not trusted."""
+    m = native.load().intact_manifest(out_dir)
+    return ((m or {}).get("blender") or {}).get("content_hash")
 
 
 def source_warnings(source: WorldSource) -> list:

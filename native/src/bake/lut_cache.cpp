@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -25,6 +26,13 @@ std::string lut_cache_key(int size, LutModel model, const LutQuality& q) {
 }
 
 namespace {
+
+// A temporary file's tag, unique to this process and call: bakes running
+// side by side in one process (the CLI's --jobs) may store the same entry.
+std::string tmp_tag() {
+    static std::atomic<unsigned> counter{0};
+    return std::to_string(::getpid()) + "-" + std::to_string(counter++);
+}
 
 // Entry layout (<key>.lut): 8-byte magic, width and height (int32, this
 // machine's byte order, as the magic's last byte records), the checksum
@@ -103,7 +111,7 @@ void FileLutCache::store(const std::string& key, const Image& lut) {
     fs::create_directories(dir_, ec);
     if (ec || key.size() > kMaxKey) return;  // a cache that cannot be written is not an error
     const fs::path final_path = dir_ / (key + ".lut");
-    const fs::path tmp = dir_ / (key + ".tmp-" + std::to_string(::getpid()) + ".lut");
+    const fs::path tmp = dir_ / (key + ".tmp-" + tmp_tag() + ".lut");
     bool ok = false;
     {
         File file{std::fopen(tmp.c_str(), "wb")};
@@ -182,7 +190,7 @@ void FileLutCache::store_encoded(const std::string& key, const fs::path& from) {
     fs::create_directories(dir_, ec);
     if (ec) return;  // a cache that cannot be written is not an error
     const std::string entry = encoded_head(key, bytes->data(), bytes->size()) + *bytes;
-    const fs::path tmp = dir_ / (key + ".tmp-" + std::to_string(::getpid()) + ".enc");
+    const fs::path tmp = dir_ / (key + ".tmp-" + tmp_tag() + ".enc");
     if (write_all(tmp, entry.data(), entry.size())) fs::rename(tmp, dir_ / (key + ".enc"), ec);
     fs::remove(tmp, ec);
 }

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/types.h>
 #include <unistd.h>
 
 namespace iblbake::io {
@@ -15,6 +16,18 @@ int open_regular_file(const std::string& path, bool follow_links) {
         return -1;
     }
     return fd;
+}
+
+std::optional<std::string> read_regular_file(const std::string& path, size_t limit, bool follow_links) {
+    const int fd = open_regular_file(path, follow_links);
+    if (fd < 0) return std::nullopt;
+    std::string text;
+    char buf[65536];
+    ssize_t n;
+    while ((n = ::read(fd, buf, sizeof buf)) > 0 && text.size() <= limit) text.append(buf, size_t(n));
+    ::close(fd);
+    if (n < 0 || text.size() > limit) return std::nullopt;
+    return text;
 }
 
 }  // namespace iblbake::io

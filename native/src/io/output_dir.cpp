@@ -10,7 +10,6 @@
 #include <cstring>
 #include <chrono>
 #include <cstdlib>
-#include <fstream>
 #include <random>
 #include <regex>
 #include <set>
@@ -21,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "iblbake/io/open_regular.h"
 #include "iblbake/io/text.h"
 
 namespace iblbake::io {
@@ -66,14 +66,15 @@ bool is_within(const fs::path& inner, const fs::path& outer) {  // inner == oute
 
 std::string quoted(const fs::path& p) { return "'" + printable(p.string()) + "'"; }
 
-std::string read_text(const fs::path& p) {
-    std::ifstream f(p);
-    if (!f) return {};
-    return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+// A bake's manifest.json: only a regular file, not through a link (a FIFO
+// named so would hang the bake, a device never end), at most
+// kMaxManifestBytes; "" otherwise (not a bake's).
+std::string read_manifest(const fs::path& dir) {
+    return read_regular_file((dir / "manifest.json").string(), kMaxManifestBytes, false).value_or("");
 }
 
 bool holds_a_bake(const fs::path& dir) {
-    return read_text(dir / "manifest.json").find("\"generator\": \"iblbake\"") != std::string::npos;
+    return read_manifest(dir).find("\"generator\": \"iblbake\"") != std::string::npos;
 }
 
 // What an earlier bake in `dir` wrote: the manifest's `files` (every file,
@@ -86,7 +87,7 @@ bool written_by_a_bake(const std::string& rel, const std::set<std::string>& list
 
 std::set<std::string> files_of_manifest(const fs::path& dir) {
     std::set<std::string> out;
-    const nlohmann::json m = nlohmann::json::parse(read_text(dir / "manifest.json"), nullptr, false);
+    const nlohmann::json m = nlohmann::json::parse(read_manifest(dir), nullptr, false);
     if (!m.is_object()) return out;
     for (const char* key : {"files", "encodings"})
         if (m.contains(key) && m[key].is_object())
