@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -376,7 +377,8 @@ Tile make_tile(int tile, int n, int T) {
 // next. The accepted bins' fields go into acc, structure-of-arrays, padded
 // to whole lanes with bins of no power. Returns the number accepted.
 size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, float horizon_radius,
-                   std::vector<float> (&acc)[kFields], std::vector<const BinNode*>& chromatic) {
+                   std::vector<float> (&acc)[kFields], std::vector<const BinNode*>& chromatic,
+                   std::vector<uint32_t>& chroma_at) {
     thread_local std::vector<uint32_t> cur, next;
     thread_local std::vector<const BinNode*> accepted;
     cur.clear();
@@ -453,10 +455,12 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     for (auto& a : acc) a.resize(padded);
     // The bins of varying colour among them (chroma_pass), branch-free.
     chromatic.resize(count + 1);
+    chroma_at.resize(count + 1);
     size_t nc = 0;
     for (size_t i = 0; i < count; ++i) {
         const BinNode& nd = *accepted[i];
         chromatic[nc] = &nd;
+        chroma_at[nc] = uint32_t(i);
         nc += nd.chroma != 0;
         acc[kernel::kPx][i] = nd.px, acc[kernel::kPy][i] = nd.py, acc[kernel::kPz][i] = nd.pz;
         acc[kernel::kG][i] = nd.g;
@@ -465,14 +469,9 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     }
     for (auto& a : acc) std::fill(a.begin() + count, a.end(), 0.0f);
     chromatic.resize(nc);
+    chroma_at.resize(nc);
     return count;
 }
-
-// One lobe of a group, as the chroma pass reads it.
-struct Lobe {
-    double inv_z;  // kernel sum -> output
-    Cubemap* dst;
-};
 
 // The sums over the bins in acc (padded to whole lanes here) at each texel
 // of the tile: out(i, j, num) with num[lobe][channel].
@@ -569,9 +568,10 @@ void chroma_estimates(const float* in, size_t n, float cx, float cy, float cz, f
     }
 }
 
-// Issue 25's second pass over a tile (bin_tree.h): the tile's texels have
-// their sums over every bin whole. A bin of varying colour can be off in
-// channel c by at most its power P_c times the kernel's variation across it,
+// Issue 25's per-channel step for a tile (bin_tree.h), before its kernel
+// sum: which (bin, channel) pairs of the bins of varying colour are summed
+// as that channel alone. A bin of varying colour can be off in channel c by
+// at most its power P_c times the kernel's variation across it,
 // dk = k(theta - beta) - k(theta + beta) at its distance theta from the
 // nearest texel (inv_z k: the output's units), and by about min(1, s_c) of
 // that (bin_tree.h's s_c: the first-order term k' n.d is dk/(2 beta) |d| at
@@ -581,42 +581,59 @@ void chroma_estimates(const float* in, size_t n, float cx, float cy, float cz, f
 // up to more than tol x the tile's least value in some channel (at least
 // 0.05 x the channel's mean, the metric's floor), the (bin, channel) pair
 // with the largest estimate against that bound is taken on its own
-// instead: the channel summed with its power and its own moments, the bin
-// with that channel's power negated, added to each texel. The pairs are
-// taken in buckets of the binary exponent of that ratio, largest first
-// (within a factor 2 of the largest-first order, with no sort). tol 0:
-// every channel of every bin of varying colour. Measured and refused:
-// sub-tiles of 4 x 4 texels with their own budgets (fewer bins, more time),
-// a cap on the pairs per tile, signs or quadrature for far or weak bins
-// (issue 25: each left a source over 1 %, or saved under 7 %).
-// Returns the number of bins summed per texel.
-size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const BinNode*>& chromatic,
-                   const Lobe* lobes, int K, const float* a2, double tol, kernel::SumsFn sums) {
+// instead: the bin's entry in acc loses that channel's power (a bin with
+// every channel taken is dropped), and an entry of that channel alone, with
+// its power and its own moments, is appended; the tile is then summed once.
+// The tile's least value is that of its four corner texels' sums over the
+// bins whole (the sum is smooth across a tile; summing every texel twice,
+// once whole and once for the pairs, cost forest.exr a third more CPU than
+// main, issue 25). The pairs are taken in buckets of the binary exponent of
+// that ratio, largest first (within a factor 2 of the largest-first order,
+// with no sort). tol 0: every channel of every bin of varying colour.
+// Measured and refused: sub-tiles of 4 x 4 texels with their own budgets
+// (fewer bins, more time), a cap on the pairs per tile, signs or quadrature
+// for far or weak bins (issue 25: each left a source over 1 %, or saved
+// under 7 %). count: the entries in acc, updated.
+void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const BinNode*>& chromatic,
+                 const std::vector<uint32_t>& chroma_at, std::vector<float> (&acc)[kFields], size_t& count,
+                 const double* inv_zd, int K, const float* a2, double tol, kernel::SumsFn sums) {
     double limit[kernel::kMaxLobes][3];
     float inv_limit[kernel::kMaxLobes][3];
-    for (int g = 0; g < K; ++g) {
-        float least[3] = {INFINITY, INFINITY, INFINITY};
-        for (int j = t.j0; j < t.j1; ++j)
-            for (int i = t.i0; i < t.i1; ++i) {
-                const float* o = lobes[g].dst->at(t.face, i, j);
-                for (int c = 0; c < 3; ++c) least[c] = std::min(least[c], o[c]);
-            }
+    {
+        float least[kernel::kMaxLobes][3];
+        for (int g = 0; g < K; ++g) least[g][0] = least[g][1] = least[g][2] = INFINITY;
+        const float* fields[kFields];
+        for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
+        const size_t padded = acc[0].size();  // whole lanes (gather_bins)
+        const int ci[2] = {t.i0, t.i1 - 1}, cj[2] = {t.j0, t.j1 - 1};
+        const int w = t.i1 - t.i0;
+        for (int a = 0; a < 4; ++a) {
+            if ((a & 1) && ci[1] == ci[0]) continue;
+            if ((a & 2) && cj[1] == cj[0]) continue;
+            const Vec3& d = t.dirs[size_t(cj[a >> 1] - t.j0) * w + size_t(ci[a & 1] - t.i0)];
+            double num[kernel::kMaxLobes][3];
+            sums(fields, padded, K, a2, d.x, d.y, d.z, num);
+            for (int g = 0; g < K; ++g)
+                for (int c = 0; c < 3; ++c) least[g][c] = std::min(least[g][c], float(num[g][c] * inv_zd[g]));
+        }
         // Rounded down to an eighth of an octave: the limits, and so the
         // bins chosen, do not follow the sums' last bits (which differ
         // between the kernels of different instruction sets).
-        for (int c = 0; c < 3; ++c) {
-            int e = 0;
-            const double m = std::frexp(std::max(0.05 * tree.channel_mean[c], double(least[c])), &e);
-            limit[g][c] = tol * std::ldexp(std::floor(m * 16.0) / 16.0, e);
-            inv_limit[g][c] = float(1.0 / limit[g][c]);
-        }
+        for (int g = 0; g < K; ++g)
+            for (int c = 0; c < 3; ++c) {
+                int e = 0;
+                const double m = std::frexp(std::max(0.05 * tree.channel_mean[c], double(least[g][c])), &e);
+                limit[g][c] = tol * std::ldexp(std::floor(m * 16.0) / 16.0, e);
+                inv_limit[g][c] = float(1.0 / limit[g][c]);
+            }
     }
     // Each bin's estimates per lobe and channel (in lanes), their totals,
     // and the (bin, channel) pairs by their largest estimate against the
     // limits, in buckets of its binary exponent.
     const size_t n = chromatic.size();
     thread_local std::vector<float> in, est, key;
-    thread_local std::vector<uint32_t> bucket_of, order;
+    thread_local std::vector<uint32_t> order;
+    thread_local std::vector<uint8_t> bucket_of;
     in.resize(kChromaIn * n);
     est.resize(size_t(K) * 3 * n);
     key.resize(3 * n);
@@ -626,7 +643,7 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
         for (int c = 0; c < 3; ++c) in[(4 + c) * n + b] = nd->chroma_score(c), in[(7 + c) * n + b] = nd->power[c];
     }
     float inv_z[kernel::kMaxLobes];
-    for (int g = 0; g < K; ++g) inv_z[g] = float(lobes[g].inv_z);
+    for (int g = 0; g < K; ++g) inv_z[g] = float(inv_zd[g]);
     double total[kernel::kMaxLobes][3] = {};
     chroma_estimates(in.data(), n, t.c.x, t.c.y, t.c.z, std::cos(t.rho), std::sin(t.rho), K, a2, inv_z, inv_limit,
                      est.data(), key.data(), total);
@@ -636,77 +653,101 @@ size_t chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const B
                 if (total[g][c] > limit[g][c]) return true;
         return false;
     };
-    if (!over()) return 0;
+    if (!over()) return;
     // The (bin, channel) pairs by bucket, largest first (in order of index within one).
-    uint32_t count_in[256] = {};
+    // (Four histograms in turn: one alone was a chain of stores and loads
+    // of the same count, keys of one exponent being common.)
+    uint32_t count_in[4][256] = {};
     bucket_of.resize(3 * n);
     for (size_t q = 0; q < 3 * n; ++q) {
         uint32_t bits;
         std::memcpy(&bits, &key[q], sizeof(bits));
-        bucket_of[q] = key[q] > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
-        ++count_in[bucket_of[q]];
+        const uint32_t bk = key[q] > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
+        bucket_of[q] = uint8_t(bk);
+        ++count_in[q & 3][bk];
     }
     uint32_t start[256];
     uint32_t sum = 0;
-    for (int k = 255; k >= 1; --k) start[k] = sum, sum += count_in[k];
+    for (int k = 255; k >= 1; --k)
+        start[k] = sum, sum += count_in[0][k] + count_in[1][k] + count_in[2][k] + count_in[3][k];
     order.resize(sum);
     for (size_t q = 0; q < 3 * n; ++q)
         if (bucket_of[q]) order[start[bucket_of[q]]++] = uint32_t(q);  // q = c n + b
     thread_local std::vector<uint8_t> taken;  // per bin: its channels taken on their own (bits)
+    thread_local std::vector<uint32_t> took;  // the bins taken, in the order first taken
     taken.assign(n, 0);
+    took.resize(n);
+    thread_local std::vector<const ChromaBin*> took_cb;  // their ChromaBins
+    took_cb.resize(n);
+    size_t nt = 0;
     for (const uint32_t q : order) {
         if (!over()) break;
         const int c = int(q >= n) + int(q >= 2 * n);  // q = c n + b
         const size_t b = q - size_t(c) * n;
         for (int g = 0; g < K; ++g) total[g][c] -= est[(size_t(g) * 3 + c) * n + b];
-        if (!taken[b]) __builtin_prefetch(&tree.chroma_of(*chromatic[b]));  // read below
+        if (!taken[b]) {
+            const ChromaBin* cb = &tree.chroma_of(*chromatic[b]);
+            __builtin_prefetch(cb);  // read below
+            took_cb[nt] = cb;
+            took[nt++] = uint32_t(b);
+        }
         taken[b] |= uint8_t(1u << c);
     }
-    // The entries: per bin taken, its taken channels' power negated (with
-    // the bin's moments), then each taken channel alone (its own); written
-    // in place, padded to whole lanes with zeros.
-    size_t count = 0;
-    for (size_t b = 0; b < n; ++b) count += taken[b] ? 1 + size_t(__builtin_popcount(taken[b])) : 0;
-    const size_t padded = (count + kLanes - 1) / kLanes * kLanes;
-    thread_local std::vector<float> acc[kFields];
+    // The bins taken: their taken channels' power zeroed in place; the bins
+    // with every channel taken dropped, each replaced by the last entry (in
+    // decreasing order of place, so that the last is never one to drop).
+    took.resize(nt);
+    thread_local std::vector<uint32_t> drop;
+    drop.clear();
+    size_t extra = 0;
     float* f[kFields];
+    for (int k = 0; k < kFields; ++k) f[k] = acc[k].data();
+    for (const uint32_t b : took) {
+        const unsigned tk = taken[b];
+        const uint32_t i = chroma_at[b];
+        extra += size_t(__builtin_popcount(tk));
+        for (int c = 0; c < 3; ++c) {
+            float& p = f[kernel::kP0 + c][i];
+            p = tk >> c & 1u ? 0.0f : p;
+        }
+        if (tk == 7u) drop.push_back(i);
+    }
+    size_t e = count;
+    if (!drop.empty()) {
+        std::sort(drop.begin(), drop.end(), std::greater<uint32_t>());
+        for (const uint32_t i : drop) {
+            --e;
+            for (int k = 0; k < kFields; ++k) f[k][i] = f[k][e];
+        }
+    }
+    // Then each taken channel alone (its own moments), padded to whole
+    // lanes with zeros.
+    const size_t total_count = e + extra;
+    const size_t padded = (total_count + kLanes - 1) / kLanes * kLanes;
     for (int k = 0; k < kFields; ++k) {
-        acc[k].resize(padded);
+        acc[k].resize(std::max(padded, acc[k].size()));
         f[k] = acc[k].data();
     }
-    size_t e = 0;
-    auto put = [&](const float* p, float g, const float* cov, float cov_scale) {  // no power yet
-        f[kernel::kPx][e] = p[0], f[kernel::kPy][e] = p[1], f[kernel::kPz][e] = p[2];
-        f[kernel::kG][e] = g;
-        for (int c = 0; c < 3; ++c) f[kernel::kP0 + c][e] = 0.0f;
-        for (int k = 0; k < 6; ++k) f[kernel::kCxx + k][e] = cov[k] * cov_scale;
-        ++e;
-    };
-    for (size_t b = 0; b < n; ++b) {
+    for (size_t k0 = 0; k0 < nt; ++k0) {
+        const uint32_t b = took[k0];
         const unsigned tk = taken[b];
-        if (!tk) continue;
         const BinNode* nd = chromatic[b];
-        const ChromaBin& cb = tree.chroma_of(*nd);
-        const float p[3] = {nd->px, nd->py, nd->pz};
-        put(p, nd->g, nd->cov, 1.0f);
-        for (int c = 0; c < 3; ++c)
-            if (tk >> c & 1u) f[kernel::kP0 + c][e - 1] = -nd->power[c];
+        const ChromaBin& cb = *took_cb[k0];
         for (int c = 0; c < 3; ++c) {
             if (!(tk >> c & 1u)) continue;
             const ChromaChannel& ch = cb.channel[c];
-            const float cp[3] = {ch.px, ch.py, ch.pz};
-            put(cp, ch.g, nd->cov, ch.cov_scale);
-            f[kernel::kP0 + c][e - 1] = nd->power[c];
+            f[kernel::kPx][e] = ch.px, f[kernel::kPy][e] = ch.py, f[kernel::kPz][e] = ch.pz;
+            f[kernel::kG][e] = ch.g;
+            for (int cc = 0; cc < 3; ++cc) f[kernel::kP0 + cc][e] = cc == c ? nd->power[c] : 0.0f;
+            for (int k = 0; k < 6; ++k) f[kernel::kCxx + k][e] = nd->cov[k] * ch.cov_scale;
+            ++e;
         }
     }
-    for (int k = 0; k < kFields; ++k) std::fill(f[k] + count, f[k] + padded, 0.0f);
-    sum_tile(t, acc, K, a2, sums, [&](int i, int j, const double (*num)[3]) {
-        for (int g = 0; g < K; ++g) {
-            float* o = lobes[g].dst->at(t.face, i, j);
-            for (int ch = 0; ch < 3; ++ch) o[ch] = float(o[ch] + num[g][ch] * lobes[g].inv_z);
-        }
-    });
-    return count;
+    for (int k = 0; k < kFields; ++k) {
+        acc[k].resize(padded);
+        std::fill(acc[k].begin() + total_count, acc[k].end(), 0.0f);
+    }
+    count = total_count;
 }
 
 }  // namespace
@@ -772,21 +813,21 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
     const int T = std::max(1, std::min(tile, n / 4));
     const int tiles_per_row = (n + T - 1) / T, tiles = 6 * tiles_per_row * tiles_per_row;
     std::vector<double> used(tiles, 0.0);
-    Lobe lobes[kernel::kMaxLobes];
-    for (int k = 0; k < K; ++k) lobes[k] = {inv_z[k], targets[k].dst};
     parallel_for(0, tiles, [&](int tile) {
         const Tile t = make_tile(tile, n, T);
         thread_local std::vector<float> acc[kFields];
         thread_local std::vector<const BinNode*> chromatic;
-        used[tile] = double(gather_bins(tree, t, scale, eps, horizon_radius, acc, chromatic));
+        thread_local std::vector<uint32_t> chroma_at;
+        size_t count = gather_bins(tree, t, scale, eps, horizon_radius, acc, chromatic, chroma_at);
+        if (!chromatic.empty() && q.chroma >= 0.0)
+            chroma_pass(tree, t, chromatic, chroma_at, acc, count, inv_z, K, a2, q.chroma, sums);
+        used[tile] = double(count);
         sum_tile(t, acc, K, a2, sums, [&](int i, int j, const double (*num)[3]) {
             for (int g = 0; g < K; ++g) {
                 float* o = targets[g].dst->at(t.face, i, j);
                 for (int ch = 0; ch < 3; ++ch) o[ch] = float(num[g][ch] * inv_z[g]);
             }
         });
-        if (!chromatic.empty() && q.chroma >= 0.0)
-            used[tile] += double(chroma_pass(tree, t, chromatic, lobes, K, a2, q.chroma, sums));
     });
     double total = 0.0;
     for (double u : used) total += u;

@@ -56,8 +56,9 @@ struct HierarchicalQuality {
     // Bins of varying colour (bin_tree.h's ChromaBin) have their channels
     // taken on their own, largest estimated error first, while the errors
     // of those taken whole add up to more than this times a tile's least
-    // value in some channel (at least 0.05 x the channel's mean, the
-    // metric's floor); 0: every one, negative: none. 0.01: measured (issue
+    // value in some channel (that of its corner texels' sums over the bins
+    // whole; at least 0.05 x the channel's mean, the metric's floor); 0:
+    // every one, negative: none. 0.01: measured (issue
     // 25, docs/benchmarks.md): 11 sources within 0.86 % per channel; 0.02
     // left the red sun at 1.6 % (r = 0.125), 0.005 cost 1.5x to 2x the
     // extra bins.
@@ -76,7 +77,8 @@ struct HierarchicalQuality {
 // where that matters (HierarchicalQuality::chroma). The result is a deterministic
 // quadrature of SPEC.md's integral over the bilinear L whose error is set
 // by eps, with no sampling noise and no clamping.
-// Returns the mean number of bins per texel (the chroma pass's included).
+// Returns the mean number of bins per texel (a bin's channels taken alone
+// counted as bins, a bin with all three taken not counted whole).
 double specular_hierarchical(Cubemap& dst, const BinTree& tree, double roughness, const HierarchicalQuality& q = {});
 
 // Up to four levels of one face size in one pass (engine presets bake levels
