@@ -115,6 +115,12 @@ await run('babylon_sun', async (s) => {
   const loaded = await page.evaluate((u) => iblTest.setSun({ url: u }), s.dataUrl(gltfFile));
   s.log(`sun.gltf loaded by Babylon's glTF loader in ${((Date.now() - t0) / 1000).toFixed(1)} s: ${JSON.stringify(loaded)}`);
   const main = lightCheck(loaded, want);
+  const one = loaded.lights.filter((l) => l.isDirectional);
+  s.expect("sun.gltf: Babylon's glTF loader gives exactly one light, a DirectionalLight, with sun.json's babylon intensity and colour (1e-4 relative)", {
+    pass: loaded.lights.length === 1 && one.length === 1 && relOk(one[0].intensity, want.intensity) && one[0].diffuse.every((c, k) => relOk(c, want.color[k])),
+    message: `${loaded.lights.length} light(s), ${one.length} directional; intensity ${fmt(one[0]?.intensity, 6)} vs ${fmt(want.intensity, 6)}, ` +
+             `diffuse ${fmt(one[0]?.diffuse, 6)} vs ${fmt(want.color, 6)}`,
+  });
   s.expect(`sun.gltf: Babylon's glTF loader gives one DirectionalLight along the babylon preset's light_direction (${DIR_TOL_DEG} deg), intensity and colour as sun.json (${REL_TOL} relative)`, main);
   s.metric('light', main.metrics);
   const lw = loaded.lights.find((l) => l.isDirectional);
