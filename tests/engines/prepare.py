@@ -7,8 +7,8 @@ DATA/src         marker.exr, marker_babylon.exr, smooth.exr, sources.json
 DATA/marker      the marker baked with every engine preset
 DATA/marker_formats  the marker with the containers' other pixel formats
 DATA/smooth      the smooth source baked with the three, filament and babylon presets
-DATA/sun, DATA/sun_split  sun.exr baked with the three preset as it is, and
-                 with --sun split (the sun-free environment, sun.gltf)
+DATA/sun, DATA/sun_split  sun.exr baked with the three and babylon presets as
+                 it is, and with --sun split (the sun-free environment, sun.gltf)
 DATA/marker_linM the marker's SPEC chain with M levels (the levels of the
                  deliberately wrong "linear curve" exports; M = the three preset's)
 WEBDIR/snippets  three.mjs: docs/export.md's three.js snippet wrapped in a function
@@ -85,8 +85,8 @@ def main(argv):
     bake(a.cli, os.path.join(src, "marker.exr"), os.path.join(a.out, "marker"), ALL_PRESETS)
     bake(a.cli, os.path.join(src, "marker.exr"), os.path.join(a.out, "marker_formats"), FORMAT_PRESETS)
     bake(a.cli, os.path.join(src, "smooth.exr"), os.path.join(a.out, "smooth"), ENGINE_PRESETS)
-    bake(a.cli, os.path.join(src, "sun.exr"), os.path.join(a.out, "sun"), ["three"])
-    bake(a.cli, os.path.join(src, "sun.exr"), os.path.join(a.out, "sun_split"), ["three"], ["--sun", "split"])
+    bake(a.cli, os.path.join(src, "sun.exr"), os.path.join(a.out, "sun"), ["three", "babylon"])
+    bake(a.cli, os.path.join(src, "sun.exr"), os.path.join(a.out, "sun_split"), ["three", "babylon"], ["--sun", "split"])
     with open(os.path.join(a.out, "marker", "manifest.json")) as f:
         man = json.load(f)
     spec_levels = len(man["specular"])

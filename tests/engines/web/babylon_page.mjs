@@ -18,12 +18,15 @@ import '@babylonjs/core/Materials/Textures/Loaders/envTextureLoader.js';
 import { RawCubeTexture } from '@babylonjs/core/Materials/Textures/rawCubeTexture.js';
 import { CreateEnvTextureAsync } from '@babylonjs/core/Misc/environmentTextureTools.js';
 import { ExrLoaderGlobalConfiguration } from '@babylonjs/core/Materials/Textures/Loaders/EXR/exrLoader.configuration.js';
+import { DirectionalLight } from '@babylonjs/core/Lights/directionalLight.js';
+import { LoadAssetContainerAsync } from '@babylonjs/core/Loading/sceneLoader.js';
+import '@babylonjs/loaders/glTF/index.js';   // the glTF file loader and its extensions (KHR_lights_punctual)
 import { f32ToBase64, ready, fail } from '/w/common.mjs';
 
 // Babylon's EXR reader fetches fflate from a CDN by default: serve the pinned copy.
 ExrLoaderGlobalConfiguration.FFLATEUrl = '/m/fflate/umd/index.js';
 
-let engine, scene, camera, gl, size, sphere = null, env = null;
+let engine, scene, camera, gl, size, sphere = null, env = null, sunAsset = null, ownLight = null;
 
 function init(s) {
   size = s;
@@ -85,6 +88,46 @@ const api = {
              size: env.getSize().width, levels: env._texture ? env._texture.mipLevelCount : null,
              polynomial: sp ? { x: sp.x.asArray(), y: sp.y.asArray(), z: sp.z.asArray(), xx: sp.xx.asArray(), yy: sp.yy.asArray(),
                                 zz: sp.zz.asArray(), xy: sp.xy.asArray(), yz: sp.yz.asArray(), zx: sp.zx.asArray() } : null };
+  },
+  // Loads a glTF (sun.gltf) with Babylon's glTF loader into the scene (null: removes it).
+  // Reports every light the scene then holds, and for the directional ones the
+  // world direction of travel: the light's own direction through its node's
+  // world matrix (the loader's __root__ turns glTF's right-handed space into
+  // Babylon's left-handed one), beside Babylon's own transformedDirection.
+  async setSun(opts) {
+    if (sunAsset) { sunAsset.removeAllFromScene(); sunAsset.dispose(); sunAsset = null; }
+    if (!opts) return {};
+    sunAsset = await LoadAssetContainerAsync(opts.url, scene);
+    sunAsset.addAllToScene();
+    const out = [];
+    for (const l of scene.lights) {
+      const chain = [];
+      for (let n = l.parent; n; n = n.parent) chain.unshift(n);
+      chain.forEach((n) => n.computeWorldMatrix(true));
+      const item = { name: l.name, className: l.getClassName(), isDirectional: l instanceof DirectionalLight, enabled: l.isEnabled(),
+                     parents: chain.map((n) => n.name), intensity: l.intensity, intensityMode: l.intensityMode, photometricScale: l._photometricScale,
+                     diffuse: l.diffuse.asArray(), specular: l.specular.asArray(), direction: l.direction ? l.direction.asArray() : null };
+      if (item.isDirectional) {
+        const wm = chain.length ? chain[chain.length - 1].getWorldMatrix() : null;
+        item.worldDirection = (wm ? Vector3.TransformNormal(l.direction, wm) : l.direction.clone()).normalize().asArray();
+        l.computeTransformedInformation();
+        item.transformedDirection = l.transformedDirection ? l.transformedDirection.clone().normalize().asArray() : null;
+        if (chain.length) {
+          const root = chain[0];
+          item.root = { name: root.name, rotation: root.rotationQuaternion ? root.rotationQuaternion.asArray() : null, scaling: root.scaling.asArray() };
+        }
+      }
+      out.push(item);
+    }
+    return { lights: out };
+  },
+  // A DirectionalLight made by hand (sun.json's api: direction of travel, diffuse = colour), or none (null).
+  setLight(o) {
+    if (ownLight) { ownLight.dispose(); ownLight = null; }
+    if (!o) return;
+    ownLight = new DirectionalLight('own_sun', new Vector3(...o.direction), scene);
+    ownLight.diffuse = new Color3(...o.color);
+    ownLight.intensity = o.intensity;
   },
   // Replaces the environment's irradiance polynomial ({x, y, z, xx, ...} of [r, g, b]), or restores the file's (null).
   setPolynomial(p) {
