@@ -1,13 +1,15 @@
-// Babylon.js renders the `babylon` preset (.env: RGBD PNG, z-mirror, Babylon
+// Babylon.js renders the `babylon` preset (.env: RGBD PNG, x-mirror, Babylon
 // curve, SPEC polynomial) loaded with CubeTexture.CreateFromPrefilteredData:
 // orientation, exact values per level, diffuse from the polynomial, the
 // cross-check against Babylon's own prefiltering (EXRCubeTexture), negative
 // controls and a contact sheet.
 //
-// Babylon's world is left-handed; a glTF (right-handed, SPEC) scene comes in
-// with Z negated, so SPEC direction (x, y, z) is Babylon's (x, y, -z). The
-// camera sits at (0, 0, -5) looking toward +Z, so a pixel shows what three.js
-// shows from (0, 0, +5).
+// Babylon's world is left-handed; its glTF loader brings a glTF (right-handed,
+// SPEC) scene in under a root turned half a turn about Y and scaled -1 in z,
+// X negated overall, so SPEC direction (x, y, z) is Babylon's (-x, y, z)
+// (engine_babylon_sun.mjs measures the loader's root). The camera sits at
+// (0, 0, 5) looking toward -Z, so a pixel shows what three.js shows from
+// (0, 0, 5).
 import fs from 'node:fs';
 import path from 'node:path';
 import { run, b64ToF32, fmt } from './lib/harness.mjs';
@@ -19,8 +21,8 @@ import { prefiltered, chainTruth, markerSource, smoothIrradiance } from './lib/r
 import { loadBakes, expectedLevels } from './lib/data.mjs';
 
 const S = 129;
-const ENGINE_MIRROR = 'z';           // ENGINES.md: Babylon samples (x, y, -z) of SPEC
-const EYE = [0, 0, -5];
+const ENGINE_MIRROR = 'x';           // Babylon samples (-x, y, z) of SPEC: its glTF loader's frame
+const EYE = [0, 0, 5];
 const MIN_VARIANCE = 0.0005;         // Babylon's alphaG = r^2 + MINIMUMVARIANCE
 const LOD_SCALE = 0.8;
 // Babylon decodes RGBD into a half-float cube and we read a half-float
@@ -28,9 +30,9 @@ const LOD_SCALE = 0.8;
 // sharp lobes through SwiftShader's texel-coordinate precision.
 const TOL = { centre: 3e-3, p99: 3e-2 };
 
-const toSpec = (d) => [d[0], d[1], -d[2]];
+const toSpec = (d) => [-d[0], d[1], d[2]];
 // View-space pixel normal (toward the camera = +z in pixelNormal) -> Babylon world.
-const worldN = (N) => [N[0], N[1], -N[2]];
+const worldN = (N) => [-N[0], N[1], N[2]];  // left-handed, looking toward -Z: right is -X
 // The reflection Babylon looks up (world), from the eye position (Babylon
 // uses the eye position even for orthographic cameras), no bending.
 function lookupWorld(N) {
@@ -62,7 +64,7 @@ await run('babylon', async (s) => {
   if (!pre) throw new Error('marker bake has no presets.babylon in its manifest');
   const N0 = pre.specular[0].face_size, T = pre.specular.length - 1;
   const tableErr = Math.max(...pre.specular.map((l, m) => Math.abs(l.roughness - CURVES.babylon.r(m, T, N0))));
-  s.expect('manifest: z-mirror, Babylon curve, chain to 1 px', {
+  s.expect('manifest: x-mirror, Babylon curve, chain to 1 px', {
     pass: pre.mirror === ENGINE_MIRROR && pre.curve === 'babylon' && tableErr < 1e-6 && pre.specular[T].face_size === 1,
     message: `mirror ${pre.mirror}, curve ${pre.curve}, ${pre.specular.length} levels ${pre.specular.map((l) => l.face_size).join('/')}, ` +
              `largest |r_m - min(1, sqrt(2^(m/0.8)/N0))| ${fmt(tableErr)}`,
@@ -134,14 +136,14 @@ await run('babylon', async (s) => {
   const polyFile = dInfo.irradiance;
   s.expect('diffuse: the .env polynomial = Irr(N)', valueCheck(ratio(a), S, exactIrr, { centreTol: 3e-3, p99Tol: 5e-3, minNV: 0.05 }));
   const sh9 = smooth.manifest.sh9;
-  await page.evaluate((p) => iblTest.setPolynomial(p), babylonPolynomial(mirrorSh(sh9, 'z')));
-  s.expect("diffuse (reference): sh9 z-mirrored, bands scaled for Babylon's evaluation = Irr(N)", valueCheck(ratio(await render(matte)), S, exactIrr, { centreTol: 3e-3, p99Tol: 5e-3, minNV: 0.05 }));
+  await page.evaluate((p) => iblTest.setPolynomial(p), babylonPolynomial(mirrorSh(sh9, 'x')));
+  s.expect("diffuse (reference): sh9 x-mirrored, bands scaled for Babylon's evaluation = Irr(N)", valueCheck(ratio(await render(matte)), S, exactIrr, { centreTol: 3e-3, p99Tol: 5e-3, minNV: 0.05 }));
   await page.evaluate((p) => iblTest.setPolynomial(p), babylonPolynomial(sh9));
-  s.expectFail('polynomial without the z-mirror', valueCheck(ratio(await render(matte)), S, exactIrr, { centreTol: 3e-3, p99Tol: 5e-3, minNV: 0.05 }));
-  await page.evaluate((p) => iblTest.setPolynomial(p), shToPolynomial(mirrorSh(sh9, 'z')));
+  s.expectFail('polynomial without the x-mirror', valueCheck(ratio(await render(matte)), S, exactIrr, { centreTol: 3e-3, p99Tol: 5e-3, minNV: 0.05 }));
+  await page.evaluate((p) => iblTest.setPolynomial(p), shToPolynomial(mirrorSh(sh9, 'x')));
   s.expectFail("SPEC's polynomial as it is (Babylon's band factors not applied)", valueCheck(ratio(await render(matte)), S, exactIrr, { centreTol: 3e-3, p99Tol: 5e-3, minNV: 0.05 }));
   s.metric('polynomial_file', polyFile);
-  s.metric('polynomial_spec_z', shToPolynomial(mirrorSh(sh9, 'z')));
+  s.metric('polynomial_spec_x', shToPolynomial(mirrorSh(sh9, 'x')));
 
   // Cross-check against Babylon's own prefiltering (EXRCubeTexture, prefilterOnLoad) of the same source.
   const cubeSize = 128;
@@ -151,6 +153,7 @@ await run('babylon', async (s) => {
   const L = markerSource(desc);
   const theirs = [], cross = [];
   const c = Math.floor(S / 2);
+  const CENTRE_SPEC = toSpec(lookupWorld([0, 0, 1]));  // what the centre pixel reflects, in SPEC
   const memo = new Map();
   const oursChain = pre.specular.map((l) => ({ n: l.face_size, r: l.roughness }));
   const ownChain = Array.from({ length: Math.log2(cubeSize) + 1 }, (_, m) => ({ n: cubeSize >> m, r: m === 0 ? 0 : Math.sqrt(2 ** (m / LOD_SCALE) / cubeSize) }));
@@ -162,8 +165,8 @@ await run('babylon', async (s) => {
     if (1 - alphaG < 0.02) continue;
     // Each against the same render of its own chain with exact texels
     // (Babylon's own: 128 >> m px at alpha 2^(m/0.8)/128, HDRFiltering's table).
-    const tOurs = chainTruth(L, oursChain, [0, 0, 1], babylonLod(roughness[m], N0), memo).map((v) => (1 - alphaG) * v);
-    const tOwn = chainTruth(L, ownChain, [0, 0, 1], babylonLod(roughness[m], cubeSize), memo).map((v) => (1 - alphaG) * v);
+    const tOurs = chainTruth(L, oursChain, CENTRE_SPEC, babylonLod(roughness[m], N0), memo).map((v) => (1 - alphaG) * v);
+    const tOwn = chainTruth(L, ownChain, CENTRE_SPEC, babylonLod(roughness[m], cubeSize), memo).map((v) => (1 - alphaG) * v);
     const eo = relDiff(rgbAt(oursZ[m], S, c, c), tOurs), et = relDiff(rgbAt(px, S, c, c), tOwn);
     cross.push({ level: m, roughness: roughness[m], ours_vs_exact: eo, babylon_vs_exact: et, ours_vs_babylon: relDiff(rgbAt(oursZ[m], S, c, c), rgbAt(px, S, c, c).slice(0, 3)) });
     s.log(`cross-check r ${fmt(roughness[m], 3)}: centre pixel vs its chain with exact texels: ours ${fmt(eo)}, Babylon's prefiltering ${fmt(et)}; ours vs Babylon ${fmt(cross[cross.length - 1].ours_vs_babylon)}`);
@@ -176,7 +179,7 @@ await run('babylon', async (s) => {
 
   // Negative controls.
   await setEnv({ kind: 'env', url: s.dataUrl(noMirror) });
-  s.expectFail('orientation on an export without the z-mirror', orientationCheck(await render({ roughness: 0 }), S, desc, lookupSpec));
+  s.expectFail('orientation on an export without the x-mirror', orientationCheck(await render({ roughness: 0 }), S, desc, lookupSpec));
   await setEnv({ kind: 'env', url: s.dataUrl(linear) });
   await page.evaluate((p) => iblTest.setPolynomial(p), ZERO_POLY);
   let fails = 0;

@@ -6,7 +6,8 @@
 // included) is the babylon preset's light_direction in sun.json (0.1 deg),
 // and whose intensity and colour (diffuse) are the ones sun.json gives
 // Babylon (1e-4 relative). Negative controls: a sun.gltf turned 1 degree
-// away, and one with its direction z-mirrored, must fail that check.
+// away, and one with its direction x-mirrored (the mirror applied twice),
+// must fail that check.
 //
 // Then a white diffuse sphere (F0 = 0) lit by the sun-free babylon preset
 // plus the loaded light, and plus a DirectionalLight made as sun.json's
@@ -18,8 +19,9 @@
 //
 // Babylon's glTF loader turns glTF's right-handed scene into its left-handed
 // world with a __root__ node rotated half a turn about Y and scaled -1 in z:
-// x negated overall, while the babylon preset's .env and sun.json take
-// Babylon's world as glTF's z-mirrored.
+// x negated overall, as the babylon preset's .env and sun.json take it
+// (before, the preset z-mirrored and the loaded light was the preset's sun
+// turned half a turn about Y: this test found it).
 import fs from 'node:fs';
 import path from 'node:path';
 import { run, b64ToF32, fmt } from './lib/harness.mjs';
@@ -106,7 +108,7 @@ await run('babylon_sun', async (s) => {
   };
   const ld = sun.gltf.light_direction;
   const off1 = writeTurned('sun_turned_1deg.gltf', turned(ld, 1));
-  const zTwice = writeTurned('sun_zmirrored.gltf', [ld[0], ld[1], -ld[2]]);
+  const xTwice = writeTurned('sun_xmirrored.gltf', [-ld[0], ld[1], ld[2]]);
 
   const page = await s.start('babylon.html');
   const info = await page.evaluate((n) => iblTest.init(n), S);
@@ -127,10 +129,10 @@ await run('babylon_sun', async (s) => {
   if (lw) {
     const g = sun.gltf.light_direction, xm = [-g[0], g[1], g[2]], zm = [g[0], g[1], -g[2]];
     s.log(`measured: the loaded light's world direction of travel is ${fmt(angleDeg(lw.worldDirection, xm))} deg from sun.json's gltf light_direction ` +
-          `x-negated, ${fmt(angleDeg(lw.worldDirection, zm))} deg from it z-negated (= the babylon preset's); the loader's root: ${JSON.stringify(lw.root)}`);
+          `x-negated (= the babylon preset's), ${fmt(angleDeg(lw.worldDirection, zm))} deg from it z-negated; the loader's root: ${JSON.stringify(lw.root)}`);
     s.metric('loader_root', { root: lw.root, vs_gltf_x_negated_deg: angleDeg(lw.worldDirection, xm), vs_gltf_z_negated_deg: angleDeg(lw.worldDirection, zm) });
   }
-  for (const [label, f] of [['sun.gltf turned 1 degree away', off1], ['sun.gltf with its direction z-mirrored (the mirror applied twice)', zTwice]]) {
+  for (const [label, f] of [['sun.gltf turned 1 degree away', off1], ['sun.gltf with its direction x-mirrored (the mirror applied twice)', xTwice]]) {
     s.expectFail(label, lightCheck(await page.evaluate((u) => iblTest.setSun({ url: u }), s.dataUrl(f)), want));
   }
   await page.evaluate(() => iblTest.setSun(null));
@@ -162,8 +164,8 @@ await run('babylon_sun', async (s) => {
   await page.evaluate(() => iblTest.setPolynomial(null));
 
   const D = normalize(want.direction);          // towards the environment's sun, Babylon's world
-  const worldN = (N) => [N[0], N[1], -N[2]];    // view space (camera on -Z looking +Z) -> Babylon world
-  const toSpec = (d) => [d[0], d[1], -d[2]];    // Babylon's world -> SPEC, as the babylon preset's .env is stored
+  const worldN = (N) => [-N[0], N[1], N[2]];    // view space (camera on +Z looking -Z, left-handed) -> Babylon world
+  const toSpec = (d) => [-d[0], d[1], d[2]];    // Babylon's world -> SPEC, as the babylon preset's .env is stored
   // Exact irradiance (engine_three's model): the smooth sky's closed form plus the disc's cosine integral, SPEC axes.
   const sunDesc = sources.sun, DS = normalize(sunDesc.direction), rad = sunDesc.radius_deg * Math.PI / 180;
   const a0 = Math.abs(DS[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];

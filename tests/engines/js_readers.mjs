@@ -25,7 +25,7 @@ const ENGINES = {
   khronos: { mirror: 'none', curve: 'linear', sh: 'sh9' },
   bevy: { mirror: 'z', curve: 'linear', sh: null },
   filament: { mirror: 'none', curve: 'filament', sh: 'filament' },
-  babylon: { mirror: 'z', curve: 'babylon', sh: 'babylon' },
+  babylon: { mirror: 'x', curve: 'babylon', sh: 'babylon' },
   unity: { mirror: 'x', curve: 'unity', sh: null },
 };
 const WRONG_MIRROR = { none: 'x', x: 'none', z: 'none' };
@@ -232,12 +232,12 @@ await run('js_readers', async (s) => {
         want = k(sh9); wrong = k(mirrorSh(sh9, 'x'));
       } else {
         const P = (p) => ['x', 'y', 'z', 'xx', 'yy', 'zz', 'xy', 'yz', 'zx'].flatMap((key) => p[key]);
-        // What Babylon renders as Irr (engine_babylon measures it): sh9 z-mirrored, bands 1 and 2 x 2/3 and 1/4.
+        // What Babylon renders as Irr (engine_babylon measures it): sh9 x-mirrored, bands 1 and 2 x 2/3 and 1/4.
         const scaled = (sh) => sh.map((row) => row.map((v, i) => v * (i === 0 ? 1 : i < 4 ? 2 / 3 : 1 / 4)));
-        got = P(facts.polynomial); want = P(shToPolynomial(scaled(mirrorSh(sh9, 'z')))); wrong = P(shToPolynomial(scaled(sh9)));
+        got = P(facts.polynomial); want = P(shToPolynomial(scaled(mirrorSh(sh9, 'x')))); wrong = P(shToPolynomial(scaled(sh9)));
       }
       const d = (a, b) => Math.max(...a.map((v, i) => Math.abs(v - b[i])));
-      s.expect(`${name}: SH (${E.sh} form, ${E.sh === 'babylon' ? 'z' : 'no'} mirror)`, { pass: got.length === 27 && d(got, want) < 1e-5,
+      s.expect(`${name}: SH (${E.sh} form, ${E.sh === 'babylon' ? 'x' : 'no'} mirror)`, { pass: got.length === 27 && d(got, want) < 1e-5,
         message: `largest |difference| ${fmt(d(got, want))}` });
       s.expectFail(`${name}: SH against ${E.sh === 'babylon' ? 'unmirrored' : 'x-mirrored'} signs`, { pass: d(got, wrong) < 1e-5, message: `largest |difference| ${fmt(d(got, wrong))}` });
     }

@@ -115,9 +115,10 @@ def main(argv):
     iblbake_core.write_exr(os.path.join(a.outdir, "sun.exr"), sun(w, h))
     # The same marker for Babylon's own prefiltering, whose lat-long
     # convention shows at Babylon direction d the image's (d.z, d.y, d.x); its
-    # world is SPEC's with z negated, so it must read marker(s.z, s.y, -s.x).
+    # world is SPEC's with x negated (as its glTF loader places glTF content),
+    # so it must read marker(-s.z, s.y, s.x).
     iblbake_core.write_exr(os.path.join(a.outdir, "marker_babylon.exr"),
-                           marker(w, h, lambda d: np.stack([d[..., 2], d[..., 1], -d[..., 0]], axis=-1)))
+                           marker(w, h, lambda d: np.stack([-d[..., 2], d[..., 1], d[..., 0]], axis=-1)))
     with open(os.path.join(a.outdir, "sources.json"), "w") as f:
         json.dump({"lobes": [{"name": n, "axis": ax, "colour": c} for n, ax, c in LOBES],
                    "lobe_sharpness": LOBE_SHARPNESS, "floor": FLOOR,

@@ -249,7 +249,7 @@ def test_babylon_env_decodes_with_pillow(bake_dir):
     rough = [l["roughness"] for l in res["manifest"]["presets"]["babylon"]["specular"]]
     assert rough[0] == 0.0 and rough[-1] == 1.0
     for m, spec in ((0, 0), (levels - 1, levels - 1)):  # r = 0 and the 1 x 1 at r = 1 are SPEC's levels too
-        want = mirrored(cross_cube(out / f"specular_{spec}.exr"), "z").astype(np.float64)
+        want = mirrored(cross_cube(out / f"specular_{spec}.exr"), "x").astype(np.float64)
         got = level(m)
         # RGBD: the largest channel to about 1 % above 1, 8-bit gamma below;
         # nothing above 255 (the bright spot is clamped there, and counted).
@@ -259,14 +259,14 @@ def test_babylon_env_decodes_with_pillow(bake_dir):
         assert np.allclose(got[~inside].max(axis=-1), 255.0, rtol=0.01)
     clamped = res["manifest"]["presets"]["babylon"]["written"][0]["clamped_texels"]
     assert clamped > 0
-    # The polynomial is the SH9 irradiance of the z-mirrored radiance (ENGINES.md
-    # section 1) with bands 1 and 2 carrying A_l / pi once more (Babylon
-    # evaluates them 3/2 and 4 times stronger).
+    # The polynomial is the SH9 irradiance of the x-mirrored radiance (Babylon's
+    # glTF loader negates glTF's x) with bands 1 and 2 carrying A_l / pi once
+    # more (Babylon evaluates them 3/2 and 4 times stronger).
     p = {k: np.array(v) for k, v in info["irradiance"].items()}
-    n = np.array([0.0, 0.0, 1.0])  # engine +Z sees what SPEC has at -Z
-    irr = p["z"] * n[2] + p["zz"] * n[2] ** 2
+    n = np.array([1.0, 0.0, 0.0])  # engine +X sees what SPEC has at -X
+    irr = p["x"] * n[0] + p["xx"] * n[0] ** 2
     sh = np.array(res["sh9"])
-    y = np.array([0.282095, 0, -0.488603, 0, 0, 0, 0.315392 * 2, 0, 0])  # SPEC basis at (0, 0, -1)
+    y = np.array([0.282095, 0, 0, -0.488603, 0, 0, -0.315392, 0, 0.546274])  # SPEC basis at (-1, 0, 0)
     band = np.array([1, 2 / 3, 2 / 3, 2 / 3, .25, .25, .25, .25, .25])
     np.testing.assert_allclose(irr, (sh * band * band * y).sum(axis=1), rtol=1e-5)
 

@@ -79,9 +79,9 @@ def test_split_files_and_every_engines_light(tmp_path):
     bx, by, bz = sun["direction"]
     gl = np.array([bx, bz, -by])
     np.testing.assert_allclose(quat_rotate(node["rotation"], [0, 0, -1]), -gl, atol=1e-12)
-    # each preset: its sun.json, the direction in its world (three, bevy: glTF's; babylon: z mirrored; unity: x)
+    # each preset: its sun.json, the direction in its world (three, bevy: glTF's; babylon, unity: x mirrored)
     want = {"three": gl, "khronos": gl, "bevy": gl, "filament": gl, "cesium": gl, "source": gl,
-            "babylon": gl * [1, 1, -1], "unity": gl * [-1, 1, 1]}
+            "babylon": gl * [-1, 1, 1], "unity": gl * [-1, 1, 1]}
     for name in presets:
         entry = res["manifest"]["presets"][name]
         assert entry["files"]["sun"] == "sun.json"

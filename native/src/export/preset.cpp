@@ -114,7 +114,7 @@ std::vector<Preset> make_table() {
         p.container = Container::Env;
         p.format = PF::RgbdPng;
         p.formats = {PF::RgbdPng};
-        p.mirror = Mirror::Z;
+        p.mirror = Mirror::X;
         p.curve = RoughnessCurve::Babylon;
         p.smallest = 1;
         p.diffuse = DiffuseForm::Polynomial;
@@ -123,10 +123,11 @@ std::vector<Preset> make_table() {
         p.lod_formula = "lod = 0.8 log2(N0 alphaG), alphaG = r^2 + 0.0005 for a material of roughness r "
                         "(getLodFromAlphaG x lodGenerationScale 0.8); level m holds the lobe alpha = r_m^2 = "
                         "2^(m/0.8) / N0, as Babylon's own prefiltering";
-        p.diffuse_note = "the spherical polynomial in the header (irradiance), from the z-mirrored sh9";
-        p.notes = "RGBD PNG faces for every level down to 1 x 1 (Babylon requires the full chain); Babylon looks "
-                  "cubes up left-handed: stored z-mirrored";
-        p.light = {Mirror::Z, 1.0,
+        p.diffuse_note = "the spherical polynomial in the header (irradiance), from the x-mirrored sh9";
+        p.notes = "RGBD PNG faces for every level down to 1 x 1 (Babylon requires the full chain); Babylon's world "
+                  "is left-handed and its glTF loader places a glTF scene x-negated (its root: half a turn about Y, "
+                  "z scaled by -1): stored x-mirrored, so the environment lights glTF content as SPEC says";
+        p.light = {Mirror::X, 1.0,
                    "DirectionalLight intensity, illuminance mode (photometric scale 1): colour x intensity, lux",
                    "const sun = new DirectionalLight('sun', new Vector3(lx, ly, lz), scene); "
                    "sun.diffuse = new Color3(r, g, b); sun.intensity = intensity; or the glTF loader on sun.gltf",

@@ -42,7 +42,7 @@ function init(s) {
   scene = new Scene(engine);
   scene.clearColor = new Color4(0, 0, 0, 0);
   scene.imageProcessingConfiguration.applyByPostProcess = true;   // linear output, no tone map, no gamma
-  camera = new FreeCamera('cam', new Vector3(0, 0, -5), scene);
+  camera = new FreeCamera('cam', new Vector3(0, 0, 5), scene);  // sees SPEC's +Z side, as three.js's camera
   camera.setTarget(Vector3.Zero());
   camera.mode = Camera.ORTHOGRAPHIC_CAMERA;
   camera.orthoLeft = -1; camera.orthoRight = 1; camera.orthoTop = 1; camera.orthoBottom = -1;
