@@ -6,7 +6,7 @@ properties.py, scene_settings.py and the bpy-free core/ package."""
 bl_info = {
     "name": "iblbake",
     "author": "iblbake developers",
-    "version": (0, 2, 0),
+    "version": (0, 3, 0),
     "blender": (3, 4, 0),
     "location": "Properties > World > Image-Based Lighting",
     "description": "Bake the world into engine-ready IBL: irradiance + SH9, prefiltered specular, BRDF LUT",
