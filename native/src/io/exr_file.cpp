@@ -22,6 +22,8 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <map>
@@ -31,6 +33,8 @@
 #include <thread>
 
 #include "iblbake/io/image_io.h"
+#include "iblbake/io/row_reader.h"
+#include "iblbake/io/text.h"
 #include "iblbake/math/half.h"
 #include "raw_pixels.h"
 
@@ -403,3 +407,266 @@ void write_exr_file_rows(const std::string& path, int width, int height, int cha
 }
 
 }  // namespace iblbake::io::detail
+
+// ---------------------------------------------------------------------------
+// ExrRowReader (io/row_reader.h): read_exr() and read_image()'s finish(), a
+// band of rows at a time. Every choice (part, channels, windows, warnings) is
+// made as read_exr and finish make it, by the same helpers where they are
+// this file's; finish()'s window rule and its 2-channel warning are repeated
+// here (image_io.cpp), and the test (tests/native/test_row_reader.cpp) holds
+// the two to the same values.
+
+namespace iblbake::io {
+
+struct ExrRowReader::Impl {
+    std::string path;
+    std::unique_ptr<Imf::InputFile> file;
+    std::unique_ptr<Imf::MultiPartInputFile> multi;
+    std::unique_ptr<Imf::InputPart> part;
+    std::unique_ptr<Imf::RgbaInputFile> rgba;  // luminance-chroma files (RY, BY)
+    Imath::Box2i dw;
+    Imf::Compression compression = Imf::ZIP_COMPRESSION;
+    int tile_rows = 0;                 // a tiled file's tile height, else 0
+    std::vector<std::string> names;    // the channels read (1 to 3)
+    int data_w = 0, data_h = 0;        // the data window
+    int w = 0, h = 0, ox = 0, oy = 0;  // the rows handed out, and the data's place in them
+    std::vector<std::string> warnings;
+    std::vector<float> tmp;
+    std::vector<Imf::Rgba> tmp_rgba;
+
+    int channels() const { return rgba ? 3 : int(names.size()); }
+
+    void check_part(const Imf::Header& h, bool complete) {
+        if (!complete) throw std::runtime_error("file is truncated or damaged (rows are missing)");
+        for (const std::string& n : names) {
+            const Imf::Channel& c = h.channels()[n.c_str()];
+            if (c.xSampling != 1 || c.ySampling != 1)
+                throw std::runtime_error("channel '" + detail::shown_name(n) +
+                                         "' is subsampled, which iblbake does not read: write the file with every "
+                                         "channel at full resolution");
+        }
+    }
+
+    void take(const Imf::Header& h, uintmax_t file_size) {
+        detail::RawPixels r;
+        detail::take_windows(h, h.channels(), file_size, r);
+        dw = h.dataWindow();
+        compression = h.compression();
+        tile_rows = h.hasTileDescription() ? int(h.tileDescription().ySize) : 0;
+        data_w = r.width;
+        data_h = r.height;
+        w = r.full_width > 0 ? r.full_width : data_w;
+        apply_window(r);
+    }
+
+    // finish()'s window rule (image_io.cpp).
+    void apply_window(const detail::RawPixels& r) {
+        const int dwid = r.width, dhei = r.height;
+        h = r.full_height > 0 ? r.full_height : dhei;
+        ox = r.x_offset;
+        oy = r.y_offset;
+        if (w != dwid || h != dhei || ox != 0 || oy != 0) {
+            auto size_text = [](int64_t a, int64_t b) { return std::to_string(a) + " x " + std::to_string(b); };
+            const bool inside = ox >= 0 && oy >= 0 && int64_t(ox) + dwid <= w && int64_t(oy) + dhei <= h;
+            const bool modest = int64_t(w) * h <= 4 * int64_t(dwid) * dhei;
+            if (inside && modest) {
+                check_source_size(w, h, "display window");
+                window_warning = "the data window (" + size_text(dwid, dhei) + ") covers part of the display window (" +
+                                 size_text(w, h) + "): the rest is baked as black";
+            } else {
+                window_warning = std::string("the data window (") + size_text(dwid, dhei) + " at " +
+                                 std::to_string(ox) + ", " + std::to_string(oy) + ") " +
+                                 (inside ? "is far smaller than" : "lies outside") + " the display window (" +
+                                 size_text(w, h) + "): the data window alone is baked";
+                w = dwid, h = dhei, ox = oy = 0;
+            }
+        }
+    }
+    std::string window_warning;
+
+    void open(const std::string& path) {
+        detail::limit_exr_sizes();
+        std::error_code ec;
+        if (!std::filesystem::is_regular_file(path, ec)) throw std::runtime_error("not a regular file");
+        const uintmax_t file_size = std::filesystem::file_size(path, ec);
+        if (ec) throw std::runtime_error(ec.message());
+        if (file_size == 0) throw std::runtime_error("file is empty");
+        if (!Imf::isOpenExrFile(path.c_str())) throw std::runtime_error("not an OpenEXR file");
+        detail::check_exr_headers(path, file_size);
+        unsigned char head[8] = {0};
+        {
+            std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+            if (!f || std::fread(head, 1, 8, f.get()) != 8) throw std::runtime_error("file is truncated (no header)");
+        }
+        std::vector<std::string> reader_warnings;
+        if (head[5] & 0x10) {  // read_exr_parts' choice
+            multi = std::make_unique<Imf::MultiPartInputFile>(path.c_str(), detail::exr_line_buffer_threads());
+            int best = -1;
+            detail::ChannelChoice choice;
+            std::string why;
+            for (int i = 0; i < multi->parts(); ++i) {
+                const Imf::Header& hd = multi->header(i);
+                if (hd.hasType() && (hd.type() == Imf::DEEPSCANLINE || hd.type() == Imf::DEEPTILE)) continue;
+                std::string part_why;
+                detail::ChannelChoice c = detail::choose_channels(hd.channels(), part_why);
+                if (c.names.size() == 3) {
+                    best = i, choice = std::move(c);
+                    break;
+                }
+                if (!c.names.empty() && best < 0) best = i, choice = std::move(c);
+                if (why.empty()) why = part_why;
+            }
+            if (best < 0)
+                throw std::runtime_error("none of its " + std::to_string(multi->parts()) +
+                                         " parts holds an image to bake: " +
+                                         (why.empty() ? "all are deep" : "the first one: " + why));
+            const Imf::Header& hd = multi->header(best);
+            take(hd, file_size);
+            part = std::make_unique<Imf::InputPart>(*multi, best);
+            names = choice.names;
+            check_part(hd, part->isComplete());
+            detail::RawPixels notes;
+            detail::note_choice(choice, notes);
+            reader_warnings = notes.warnings;
+            if (best > 0)
+                reader_warnings.push_back("the file has " + std::to_string(multi->parts()) + " parts: part " +
+                                          std::to_string(best) +
+                                          (hd.hasName() ? " ('" + detail::shown_name(hd.name()) + "')" : std::string()) +
+                                          " holds the colour and is baked");
+        } else {
+            if (head[5] & 0x08)
+                throw std::runtime_error("a deep OpenEXR file (samples per pixel, not an image) cannot be baked");
+            file = detail::open_exr(path);
+            const Imf::Header& hd = file->header();
+            take(hd, file_size);
+            if (!file->isComplete()) throw std::runtime_error("file is truncated or damaged (rows are missing)");
+            if (hd.channels().findChannel("RY") || hd.channels().findChannel("BY")) {
+                file.reset();
+                rgba = std::make_unique<Imf::RgbaInputFile>(path.c_str(), detail::exr_line_buffer_threads());
+            } else {
+                std::string why;
+                const detail::ChannelChoice choice = detail::choose_channels(hd.channels(), why);
+                if (choice.names.empty()) throw std::runtime_error(why);
+                names = choice.names;
+                check_part(hd, true);
+                detail::RawPixels notes;
+                detail::note_choice(choice, notes);
+                reader_warnings = notes.warnings;
+            }
+        }
+        // finish()'s order: the reader's warnings, the window's, the channels'.
+        warnings = reader_warnings;
+        if (!window_warning.empty()) warnings.push_back(window_warning);
+        if (channels() == 2)
+            warnings.push_back("the file has 2 colour channels, neither grey nor RGB: baked as grey from the first");
+    }
+
+    void read_file_rows(int fa, int fb, Imf::FrameBuffer& fb_) {
+        if (part) {
+            part->setFrameBuffer(fb_);
+            part->readPixels(fa, fb);
+        } else {
+            file->setFrameBuffer(fb_);
+            file->readPixels(fa, fb);
+        }
+    }
+
+    void read(int y0, int rows, float* out) {
+        if (rows <= 0) return;
+        if (y0 < 0 || rows > h || y0 > h - rows) throw std::out_of_range("rows outside the image");
+        const size_t row_values = size_t(w) * 3;
+        // Output rows a .. b hold data rows (file rows fa .. fb); the rest are black.
+        const int a = std::max(y0, oy), b = std::min(y0 + rows, oy + data_h) - 1;
+        for (int y = y0; y < y0 + rows; ++y)
+            if (y < a || y > b) std::fill_n(out + size_t(y - y0) * row_values, row_values, 0.0f);
+        if (a > b) return;
+        const int fa = a - oy + dw.min.y, fb = b - oy + dw.min.y, n = b - a + 1;
+        float* first = out + size_t(a - y0) * row_values;
+        if (rgba) {
+            tmp_rgba.resize(size_t(n) * data_w);
+            rgba->setFrameBuffer(tmp_rgba.data() - dw.min.x - ptrdiff_t(fa) * data_w, 1, size_t(data_w));
+            rgba->readPixels(fa, fb);
+            for (int r = 0; r < n; ++r) {
+                float* o = first + size_t(r) * row_values;
+                std::fill_n(o, size_t(ox) * 3, 0.0f);
+                std::fill_n(o + size_t(ox + data_w) * 3, size_t(w - ox - data_w) * 3, 0.0f);
+                const Imf::Rgba* px = tmp_rgba.data() + size_t(r) * data_w;
+                for (int x = 0; x < data_w; ++x) {
+                    o[size_t(ox + x) * 3] = px[x].r;
+                    o[size_t(ox + x) * 3 + 1] = px[x].g;
+                    o[size_t(ox + x) * 3 + 2] = px[x].b;
+                }
+            }
+            return;
+        }
+        const int nch = int(names.size());
+        Imf::FrameBuffer fbuf;
+        const size_t xs = sizeof(float) * nch, ys = xs * data_w;
+        if (nch == 3 && ox == 0 && w == data_w) {  // straight into the caller's rows
+            char* base = reinterpret_cast<char*>(first) - dw.min.x * ptrdiff_t(xs) - fa * ptrdiff_t(ys);
+            for (int c = 0; c < 3; ++c) fbuf.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
+            read_file_rows(fa, fb, fbuf);
+            return;
+        }
+        tmp.resize(size_t(n) * data_w * nch);
+        char* base = reinterpret_cast<char*>(tmp.data()) - dw.min.x * ptrdiff_t(xs) - fa * ptrdiff_t(ys);
+        for (int c = 0; c < nch; ++c) fbuf.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
+        read_file_rows(fa, fb, fbuf);
+        // finish(): three channels as they are, fewer as grey from the first.
+        for (int r = 0; r < n; ++r) {
+            float* o = first + size_t(r) * row_values;
+            std::fill_n(o, size_t(ox) * 3, 0.0f);
+            std::fill_n(o + size_t(ox + data_w) * 3, size_t(w - ox - data_w) * 3, 0.0f);
+            const float* px = tmp.data() + size_t(r) * data_w * nch;
+            for (int x = 0; x < data_w; ++x)
+                for (int k = 0; k < 3; ++k) o[size_t(ox + x) * 3 + k] = px[size_t(x) * nch + (nch == 3 ? k : 0)];
+        }
+    }
+};
+
+namespace {
+// read_image's message for a file it cannot read (image_io.cpp's fail()).
+[[noreturn]] void fail_rows(const std::string& path, const std::string& why) {
+    std::string msg = why;
+    std::replace(msg.begin(), msg.end(), '\n', ' ');
+    while (!msg.empty() && msg.back() == ' ') msg.pop_back();
+    throw std::runtime_error("cannot read '" + printable(path) + "': " + printable(msg));
+}
+}  // namespace
+
+ExrRowReader::ExrRowReader(const std::string& path) : impl_(std::make_unique<Impl>()) {
+    impl_->path = path;
+    try {
+        impl_->open(path);
+    } catch (const std::bad_alloc&) {
+        fail_rows(path, "out of memory while reading");
+    } catch (const std::exception& e) {
+        fail_rows(path, e.what());
+    }
+}
+
+ExrRowReader::~ExrRowReader() = default;
+int ExrRowReader::width() const { return impl_->w; }
+int ExrRowReader::height() const { return impl_->h; }
+const std::vector<std::string>& ExrRowReader::warnings() const { return impl_->warnings; }
+
+int ExrRowReader::preferred_band() const {
+    const int block = impl_->tile_rows > 0 ? impl_->tile_rows : detail::lines_per_block(impl_->compression);
+    const int threads = detail::exr_threads();
+    const int band = std::max(128, block * threads);
+    return (band + block - 1) / block * block;
+}
+
+void ExrRowReader::read(int y0, int rows, float* out) {
+    try {
+        impl_->read(y0, rows, out);
+    } catch (const std::out_of_range&) {
+        throw;  // the caller's rows, not the file
+    } catch (const std::bad_alloc&) {
+        fail_rows(impl_->path, "out of memory while reading");
+    } catch (const std::exception& e) {  // a block that does not decode (OpenEXR's Iex exceptions)
+        fail_rows(impl_->path, e.what());
+    }
+}
+
+}  // namespace iblbake::io

@@ -1,0 +1,276 @@
+// io::ExrRowReader (issue 28's streaming bake, docs/design-streaming.md):
+// the rows it hands out, in bands of any height and in any order, are
+// read_image()'s image value for value, with its size and warnings.
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfMultiPartOutputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfOutputPart.h>
+#include <OpenEXR/ImfPartType.h>
+#include <OpenEXR/ImfRgbaFile.h>
+#include <OpenEXR/ImfTileDescription.h>
+#include <OpenEXR/ImfTiledOutputFile.h>
+#include <OpenEXR/ImfTiledOutputPart.h>
+#include <Imath/half.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "iblbake/io/image_io.h"
+#include "iblbake/io/row_reader.h"
+
+namespace fs = std::filesystem;
+using namespace iblbake;
+
+namespace {
+
+fs::path temp_file(const std::string& name) {
+    const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    return dir / name;
+}
+
+// Values that differ per channel, row and column, some far from 1 (and exact in half).
+float value(int x, int y, int c) { return float((x * 7 + y * 13 + c * 5) % 61) * 0.25f + (c == 1 ? 1000.0f : 0.0f); }
+
+struct Layout {
+    int w = 37, h = 19;                                     // data window size
+    int dx = 0, dy = 0;                                     // data window origin
+    int full_w = 0, full_h = 0;                             // display window (0: the data window)
+    std::vector<std::string> channels{"R", "G", "B"};
+    bool half = true, tiled = false;
+    Imf::Compression compression = Imf::ZIP_COMPRESSION;
+};
+
+Imf::Header header_of(const Layout& l) {
+    const Imath::Box2i data(Imath::V2i(l.dx, l.dy), Imath::V2i(l.dx + l.w - 1, l.dy + l.h - 1));
+    const Imath::Box2i display =
+        l.full_w > 0 ? Imath::Box2i(Imath::V2i(0, 0), Imath::V2i(l.full_w - 1, l.full_h - 1)) : data;
+    Imf::Header hd(display, data);
+    hd.compression() = l.compression;
+    for (const std::string& n : l.channels) hd.channels().insert(n, Imf::Channel(l.half ? Imf::HALF : Imf::FLOAT));
+    if (l.tiled) hd.setTileDescription(Imf::TileDescription(16, 8));
+    return hd;
+}
+
+// The pixels of a layout, one buffer per channel (half or float), and a frame buffer over them.
+struct Pixels {
+    std::vector<std::vector<half>> halves;
+    std::vector<std::vector<float>> floats;
+    Imf::FrameBuffer fb;
+    explicit Pixels(const Layout& l) {
+        for (size_t c = 0; c < l.channels.size(); ++c) {
+            const size_t n = size_t(l.w) * l.h;
+            if (l.half) {
+                halves.emplace_back(n);
+                for (int y = 0; y < l.h; ++y)
+                    for (int x = 0; x < l.w; ++x) halves.back()[size_t(y) * l.w + x] = half(value(x, y, int(c)));
+                char* base = reinterpret_cast<char*>(halves.back().data() - l.dx - ptrdiff_t(l.dy) * l.w);
+                fb.insert(l.channels[c], Imf::Slice(Imf::HALF, base, sizeof(half), sizeof(half) * l.w));
+            } else {
+                floats.emplace_back(n);
+                for (int y = 0; y < l.h; ++y)
+                    for (int x = 0; x < l.w; ++x) floats.back()[size_t(y) * l.w + x] = value(x, y, int(c));
+                char* base = reinterpret_cast<char*>(floats.back().data() - l.dx - ptrdiff_t(l.dy) * l.w);
+                fb.insert(l.channels[c], Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * l.w));
+            }
+        }
+    }
+};
+
+std::string write_file(const std::string& name, const Layout& l) {
+    const std::string path = temp_file(name).string();
+    Imf::Header hd = header_of(l);
+    Pixels px(l);
+    if (l.tiled) {
+        Imf::TiledOutputFile out(path.c_str(), hd);
+        out.setFrameBuffer(px.fb);
+        out.writeTiles(0, out.numXTiles() - 1, 0, out.numYTiles() - 1);
+    } else {
+        Imf::OutputFile out(path.c_str(), hd);
+        out.setFrameBuffer(px.fb);
+        out.writePixels(l.h);
+    }
+    return path;
+}
+
+// Every row, read in bands of `band` rows (last band first when `backwards`).
+std::vector<float> read_in_bands(io::ExrRowReader& r, int band, bool backwards) {
+    std::vector<float> all(size_t(r.width()) * r.height() * 3, -1.0f);
+    std::vector<int> starts;
+    for (int y = 0; y < r.height(); y += band) starts.push_back(y);
+    if (backwards) std::reverse(starts.begin(), starts.end());
+    for (int y : starts) {
+        const int rows = std::min(band, r.height() - y);
+        r.read(y, rows, all.data() + size_t(y) * r.width() * 3);
+    }
+    return all;
+}
+
+void expect_same_as_read_image(const std::string& path, std::vector<int> bands = {1, 7, 64, 1000}) {
+    const io::LoadedImage whole = io::read_image(path);
+    io::ExrRowReader r(path);
+    ASSERT_EQ(r.width(), whole.image.width);
+    ASSERT_EQ(r.height(), whole.image.height);
+    EXPECT_EQ(r.warnings(), whole.warnings);
+    EXPECT_GE(r.preferred_band(), 1);
+    bands.push_back(r.preferred_band());
+    for (int band : bands)
+        for (bool backwards : {false, true}) {
+            const std::vector<float> rows = read_in_bands(r, band, backwards);
+            ASSERT_EQ(rows.size(), whole.image.pixels.size());
+            EXPECT_EQ(0, std::memcmp(rows.data(), whole.image.pixels.data(), rows.size() * sizeof(float)))
+                << path << ": bands of " << band << (backwards ? ", last first" : "");
+        }
+}
+
+}  // namespace
+
+TEST(ExrRowReader, ScanlineZipHalf) { expect_same_as_read_image(write_file("scanline.exr", Layout{})); }
+
+TEST(ExrRowReader, ScanlineFloatPiz) {
+    Layout l;
+    l.half = false;
+    l.compression = Imf::PIZ_COMPRESSION;
+    l.h = 70;  // more than a PIZ block of 32 rows
+    expect_same_as_read_image(write_file("piz.exr", l));
+}
+
+TEST(ExrRowReader, Tiled) {
+    Layout l;
+    l.tiled = true;
+    l.w = 50, l.h = 29;  // partial tiles at the right and bottom
+    expect_same_as_read_image(write_file("tiled.exr", l));
+}
+
+TEST(ExrRowReader, DataWindowInsideTheDisplayWindow) {
+    Layout l;
+    l.dx = 3, l.dy = 5, l.full_w = 48, l.full_h = 24;  // padded with black, warned
+    expect_same_as_read_image(write_file("window.exr", l));
+}
+
+TEST(ExrRowReader, DataWindowOutsideTheDisplayWindow) {
+    Layout l;
+    l.dx = -4, l.dy = 2, l.full_w = 40, l.full_h = 20;  // the data window alone, warned
+    l.tiled = true;
+    expect_same_as_read_image(write_file("outside.exr", l));
+}
+
+TEST(ExrRowReader, GreyFromYAndFromTwoChannels) {
+    Layout y;
+    y.channels = {"Y"};
+    expect_same_as_read_image(write_file("grey.exr", y));
+    Layout two;
+    two.channels = {"R", "G"};
+    expect_same_as_read_image(write_file("two.exr", two));
+}
+
+TEST(ExrRowReader, LayerOfAMultilayerFile) {
+    Layout l;
+    l.channels = {"ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Combined.B", "ViewLayer.Depth.Z"};
+    expect_same_as_read_image(write_file("layers.exr", l));
+}
+
+TEST(ExrRowReader, LuminanceChroma) {
+    const std::string path = temp_file("yc.exr").string();
+    const int w = 40, h = 22;
+    std::vector<Imf::Rgba> px(size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) px[size_t(y) * w + x] = Imf::Rgba(value(x, y, 0), value(x, y, 1), value(x, y, 2));
+    {
+        Imf::RgbaOutputFile out(path.c_str(), w, h, Imf::WRITE_YC);
+        out.setFrameBuffer(px.data(), 1, w);
+        out.writePixels(h);
+    }
+    expect_same_as_read_image(path);
+}
+
+TEST(ExrRowReader, MultiPartTakesThePartWithColour) {
+    const std::string path = temp_file("parts.exr").string();
+    Layout depth;
+    depth.channels = {"Z"};
+    depth.half = false;
+    Layout colour;
+    colour.tiled = true;
+    Imf::Header h0 = header_of(depth), h1 = header_of(colour);
+    h0.setName("depth");
+    h0.setType(Imf::SCANLINEIMAGE);
+    h1.setName("beauty");
+    h1.setType(Imf::TILEDIMAGE);
+    const Imf::Header headers[2] = {h0, h1};
+    {
+        Imf::MultiPartOutputFile out(path.c_str(), headers, 2);
+        Pixels p0(depth), p1(colour);
+        Imf::OutputPart part0(out, 0);
+        part0.setFrameBuffer(p0.fb);
+        part0.writePixels(depth.h);
+        Imf::TiledOutputPart part1(out, 1);
+        part1.setFrameBuffer(p1.fb);
+        part1.writeTiles(0, part1.numXTiles() - 1, 0, part1.numYTiles() - 1);
+    }
+    expect_same_as_read_image(path);
+}
+
+TEST(ExrRowReader, BlenderForestIfInstalled) {
+    const std::string path = "/usr/share/blender/datafiles/studiolights/world/forest.exr";
+    if (!fs::exists(path)) GTEST_SKIP() << "no " << path;
+    expect_same_as_read_image(path);
+}
+
+TEST(ExrRowReader, RefusesWhatReadImageRefuses) {
+    const std::string path = temp_file("cut.exr").string();
+    const std::string good = write_file("whole.exr", Layout{});
+    fs::copy_file(good, path, fs::copy_options::overwrite_existing);
+    fs::resize_file(path, fs::file_size(path) / 2);
+    EXPECT_THROW(io::read_image(path), std::runtime_error);
+    try {
+        io::ExrRowReader r(path);
+        std::vector<float> rows(size_t(r.width()) * r.height() * 3);
+        r.read(0, r.height(), rows.data());
+        ADD_FAILURE() << "a cut file was read";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("cannot read"), std::string::npos) << e.what();
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << "not a runtime_error: " << e.what();
+    }
+    EXPECT_THROW(io::ExrRowReader(temp_file("missing.exr").string()), std::runtime_error);
+}
+
+// A large source named by IBLBAKE_ROWS_SOURCE (skipped without): decoded in
+// preferred bands alone first (time and peak RSS so far printed: what a
+// streaming bake's reading costs), then compared with read_image.
+TEST(ExrRowReader, LargeSourceFromEnvironment) {
+    const char* path = std::getenv("IBLBAKE_ROWS_SOURCE");
+    if (!path || !*path) GTEST_SKIP() << "set IBLBAKE_ROWS_SOURCE to an EXR file";
+    std::vector<float> band_rows;
+    {
+        const auto t0 = std::chrono::steady_clock::now();
+        io::ExrRowReader r(path);
+        const int band = r.preferred_band();
+        band_rows.resize(size_t(r.width()) * band * 3);
+        double sum = 0.0;
+        for (int y = 0; y < r.height(); y += band) {
+            const int rows = std::min(band, r.height() - y);
+            r.read(y, rows, band_rows.data());
+            sum += band_rows[size_t(rows - 1) * r.width() * 3];
+        }
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        rusage ru{};
+        getrusage(RUSAGE_SELF, &ru);
+        std::printf("bands of %d rows: %.3f s, peak RSS so far %.1f MB (checksum %g)\n", band, s,
+                    ru.ru_maxrss / 1000.0, sum);
+        std::vector<float>().swap(band_rows);
+    }
+    expect_same_as_read_image(path, {1000});  // bands of 1 row decode each block 16 times
+}
