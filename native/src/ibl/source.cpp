@@ -589,4 +589,42 @@ void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int
     s.sh9 = sh9_total(s.sh9_rows);
 }
 
+struct SummaryStream::Impl {
+    int w, h;
+    LatLongTables tab;
+    Sh9Rows sh;
+    HotRows hot;
+    std::vector<SourceScan> scans;
+    Impl(int width, int height)
+        : w(width), h(height), tab(width, height), sh(tab, width, height), hot(sized_hot_rows(height)),
+          scans(height) {}
+};
+
+SummaryStream::SummaryStream(int width, int height) : impl_(std::make_unique<Impl>(width, height)) {}
+SummaryStream::~SummaryStream() = default;
+
+void SummaryStream::add_rows(float* const* rows, int y0, int n) {
+    Impl& m = *impl_;
+    parallel_for(0, n, [&](int k) {
+        const int y = y0 + k;
+        float* row = rows[k];
+        SourceScan& s = m.scans[y];
+        s = SourceScan{};
+        scan_row(row, m.w, s);
+        if (s.bad.pixels) clean_values(row, row, size_t(m.w) * 3);
+        m.sh.row(row, y);
+        hot_row(row, m.w, y, m.tab, m.hot);
+    });
+}
+
+SourceSummary SummaryStream::finish() {
+    Impl& m = *impl_;
+    SourceSummary out;
+    out.scan = combine_scans(m.scans);
+    out.sh9 = m.sh.total();
+    out.sh9_rows = m.sh.take_rows();
+    out.hot = std::move(m.hot);
+    return out;
+}
+
 }  // namespace iblbake

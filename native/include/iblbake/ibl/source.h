@@ -9,6 +9,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "iblbake/image/image.h"
@@ -166,6 +167,29 @@ SourceSummary summarize_source(ImageView img);
 // row as summarized: those rows' SH9 and hot-row sums again from `img`, and
 // the totals. Equal to the bit to project_sh9(img) and hot_rows(img).
 void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int>& rows);
+
+// summarize_source() and the cleaning, as a source is decoded in bands
+// (issue 28, docs/design-streaming.md): add_rows() scans rows y0 .. y0+n-1
+// (bad values counted as scan_source counts them), cleans their bad values
+// in place (as clean_bad_rows does) and summarizes the cleaned rows. Rows
+// may come in any order, each once. finish() (every row added) gives, to the
+// bit, what summarize_source(img) followed by clean_bad_rows and
+// refresh_summary_rows(.., cleaned img, scan.bad_rows) give: the bake's
+// scan() and sanitize() when the overflow guard is off.
+class SummaryStream {
+public:
+    SummaryStream(int width, int height);
+    ~SummaryStream();
+    SummaryStream(const SummaryStream&) = delete;
+    SummaryStream& operator=(const SummaryStream&) = delete;
+    // rows[k]: row y0 + k, width x 3 floats, cleaned in place. Rows in parallel.
+    void add_rows(float* const* rows, int y0, int n);
+    SourceSummary finish();
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
 
 
 }  // namespace iblbake

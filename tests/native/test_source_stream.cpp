@@ -1,0 +1,102 @@
+// ibl::SummaryStream (issue 28's streaming bake, docs/design-streaming.md):
+// the summary and the cleaning of a source fed in bands of rows equal, to
+// the bit, the bake's scan() and sanitize() over the whole image.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "iblbake/ibl/source.h"
+#include "reference.h"
+
+using namespace iblbake;
+
+namespace {
+
+// What the bake does today (scan(), sanitize()): summarize the source as it
+// is, clean the bad rows, summarize those again.
+SourceSummary whole_image(Image& img) {
+    SourceSummary s = summarize_source(img);
+    clean_bad_rows(img, s.scan);
+    refresh_summary_rows(s, img, s.scan.bad_rows);
+    return s;
+}
+
+// The same rows in bands of `band` (last band first when `backwards`).
+SourceSummary in_bands(Image& img, int band, bool backwards) {
+    SummaryStream stream(img.width, img.height);
+    std::vector<int> starts;
+    for (int y = 0; y < img.height; y += band) starts.push_back(y);
+    if (backwards) std::reverse(starts.begin(), starts.end());
+    for (int y0 : starts) {
+        const int n = std::min(band, img.height - y0);
+        std::vector<float*> rows(n);
+        for (int k = 0; k < n; ++k) rows[k] = img.at(0, y0 + k);
+        stream.add_rows(rows.data(), y0, n);
+    }
+    return stream.finish();
+}
+
+template <typename T>
+bool same_bits(const T& a, const T& b) {
+    return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
+void expect_equal(const SourceSummary& a, const SourceSummary& b) {
+    EXPECT_EQ(a.scan.bad.nan, b.scan.bad.nan);
+    EXPECT_EQ(a.scan.bad.inf, b.scan.bad.inf);
+    EXPECT_EQ(a.scan.bad.negative, b.scan.bad.negative);
+    EXPECT_EQ(a.scan.bad.pixels, b.scan.bad.pixels);
+    EXPECT_EQ(a.scan.bad_rows, b.scan.bad_rows);
+    EXPECT_TRUE(same_bits(a.scan.max_value, b.scan.max_value));
+    EXPECT_TRUE(same_bits(a.sh9, b.sh9));
+    ASSERT_EQ(a.sh9_rows.size(), b.sh9_rows.size());
+    for (size_t y = 0; y < a.sh9_rows.size(); ++y) EXPECT_TRUE(same_bits(a.sh9_rows[y], b.sh9_rows[y])) << y;
+    ASSERT_EQ(a.hot.mean.size(), b.hot.mean.size());
+    for (size_t y = 0; y < a.hot.mean.size(); ++y) {
+        EXPECT_TRUE(same_bits(a.hot.mean[y], b.hot.mean[y])) << y;
+        EXPECT_TRUE(same_bits(a.hot.power[y], b.hot.power[y])) << y;
+        EXPECT_TRUE(same_bits(a.hot.top[y], b.hot.top[y])) << y;
+    }
+}
+
+Image source_with_bad_values(int w, int h, int seed) {
+    Image img = ref::random_smooth_source(w, h, seed);
+    img.at(7, 9)[1] = std::numeric_limits<float>::quiet_NaN();
+    img.at(w - 1, h - 1)[2] = -2.0f;
+    img.at(0, 0)[0] = std::numeric_limits<float>::infinity();
+    img.at(5, 9)[0] = -1e-3f;  // a second bad value on a bad row
+    img.at(w / 2, h / 2)[0] = 5e4f;  // a hot texel
+    return img;
+}
+
+}  // namespace
+
+TEST(SummaryStream, BandsEqualTheWholeImageWithBadValues) {
+    const Image original = source_with_bad_values(301, 150, 5);
+    Image whole = original;
+    const SourceSummary expected = whole_image(whole);
+    ASSERT_EQ(expected.scan.bad_rows, (std::vector<int>{0, 9, 149}));
+    for (int band : {1, 7, 64, 150})
+        for (bool backwards : {false, true}) {
+            SCOPED_TRACE(testing::Message() << "bands of " << band << (backwards ? ", last first" : ""));
+            Image img = original;
+            expect_equal(in_bands(img, band, backwards), expected);
+            EXPECT_EQ(0, std::memcmp(img.pixels.data(), whole.pixels.data(), img.pixels.size() * sizeof(float)))
+                << "cleaned as clean_bad_rows cleans";
+        }
+}
+
+TEST(SummaryStream, CleanSourcesAndTinyOnes) {
+    for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {3, 2}, {64, 32}, {2048, 1024}}) {
+        SCOPED_TRACE(testing::Message() << w << " x " << h);
+        const Image original = ref::random_smooth_source(w, h, 11);
+        Image whole = original;
+        const SourceSummary expected = whole_image(whole);
+        EXPECT_TRUE(expected.scan.bad_rows.empty());
+        Image img = original;
+        expect_equal(in_bands(img, 13, false), expected);
+    }
+}
