@@ -8,6 +8,7 @@
 #include <limits>
 #include <vector>
 
+#include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/source.h"
 #include "reference.h"
 
@@ -99,4 +100,72 @@ TEST(SummaryStream, CleanSourcesAndTinyOnes) {
         Image img = original;
         expect_equal(in_bands(img, 13, false), expected);
     }
+}
+
+// ibl::BinRowStream: the bin tree from bands of rows (a view that can read
+// the band's rows alone: any other row is a null pointer) equals
+// build_bin_tree on the whole image, every node, chroma bin and kept bin.
+namespace {
+
+void expect_same_tree(const BinTree& a, const BinTree& b) {
+    ASSERT_EQ(a.levels.size(), b.levels.size());
+    for (size_t l = 0; l < a.levels.size(); ++l) {
+        ASSERT_EQ(a.levels[l].w, b.levels[l].w);
+        ASSERT_EQ(a.levels[l].h, b.levels[l].h);
+        const size_t n = size_t(a.levels[l].w) * a.levels[l].h;
+        EXPECT_EQ(0, std::memcmp(a.levels[l].nodes.data(), b.levels[l].nodes.data(), n * sizeof(BinNode)))
+            << "level " << l;
+    }
+    ASSERT_EQ(a.chroma.size(), b.chroma.size());
+    for (size_t r = 0; r < a.chroma.size(); ++r) {
+        ASSERT_EQ(a.chroma[r].size(), b.chroma[r].size()) << r;
+        if (!a.chroma[r].empty()) {
+            EXPECT_EQ(0, std::memcmp(a.chroma[r].data(), b.chroma[r].data(), a.chroma[r].size() * sizeof(ChromaBin)));
+        }
+    }
+    EXPECT_TRUE(same_bits(a.channel_mean, b.channel_mean));
+}
+
+}  // namespace
+
+TEST(BinRowStream, BandsEqualTheWholeImage) {
+    Image img = ref::random_smooth_source(301, 150, 7);
+    for (int y = 40; y < 60; ++y)  // a coloured patch: bins of varying colour
+        for (int x = 100; x < 140; ++x) img.at(x, y)[y % 3] *= 50.0f;
+    const double mean[3] = {0.7, 0.9, 1.1};
+    BinTreeOptions options;
+    options.channel_mean = mean;
+    size_t chroma = 0;
+    for (int finest : {2, 4, 8, 32, 64}) {
+        const int keep_w = finest >= 8 ? finest / 4 : 0;
+        std::vector<Bin> keep_whole, keep_bands;
+        const BinTree whole = build_bin_tree(img, finest, keep_w ? &keep_whole : nullptr, keep_w, options);
+        chroma += whole.chroma_count();
+        BinRowStream probe(img.width, img.height, finest);
+        const int reach = probe.max_reach();
+        for (int band : {reach, reach + 3, 2 * reach + 5, img.height}) {
+            SCOPED_TRACE(testing::Message() << "finest " << finest << ", bands of " << band << ", reach " << reach);
+            BinRowStream stream(img.width, img.height, finest);
+            std::vector<const float*> table(img.height, nullptr);
+            const int step = std::max(1, band - reach + 1);
+            for (int y0 = 0;; y0 += step) {
+                const int y1 = std::min(img.height - 1, y0 + band - 1);
+                std::fill(table.begin(), table.end(), nullptr);
+                for (int y = y0; y <= y1; ++y) table[y] = img.at(0, y);
+                ImageView v(nullptr, img.width, img.height);
+                v.rows = table.data();
+                stream.add_rows(v, y0, y1);
+                if (y1 == img.height - 1) break;
+            }
+            EXPECT_EQ(stream.pending(), 0);
+            keep_bands.clear();
+            const BinTree streamed = stream.finish(mean, keep_w ? &keep_bands : nullptr, keep_w, options);
+            expect_same_tree(streamed, whole);
+            ASSERT_EQ(keep_bands.size(), keep_whole.size());
+            if (!keep_whole.empty()) {
+                EXPECT_EQ(0, std::memcmp(keep_bands.data(), keep_whole.data(), keep_whole.size() * sizeof(Bin)));
+            }
+        }
+    }
+    EXPECT_GT(chroma, 0u) << "no bin of varying colour: the chroma rows went untested";
 }

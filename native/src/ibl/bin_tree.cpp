@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <stdexcept>
 #include <utility>
 
 #include "iblbake/ibl/source.h"
@@ -185,11 +186,16 @@ void channel_mean(ImageView img, double* mean) {
 
 }  // namespace
 
-BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, int keep_w,
-                       const BinTreeOptions& options) {
+namespace {
+
+// The tree from level 0's exact bins, bin row by bin row: row(br, out)
+// writes bins (0..w-1, br) of the w x w/2 grid (w >= 2, a power of two).
+// The means are given (options.channel_mean, or computed by the caller).
+template <typename RowFn>
+BinTree build_from_rows(int finest_w, const RowFn& level0_row, const double* channel_means, std::vector<Bin>* keep,
+                        int keep_w, const BinTreeOptions& options) {
     BinTree tree;
-    if (options.channel_mean) std::copy(options.channel_mean, options.channel_mean + 3, tree.channel_mean);
-    else channel_mean(latlong, tree.channel_mean);
+    std::copy(channel_means, channel_means + 3, tree.channel_mean);
     const double* mean = tree.channel_mean;
     const double tol = options.chroma_tolerance;
     int w = std::max(2, finest_w);
@@ -211,13 +217,13 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
         return fillers.back().get();
     };
     if (w == 2) {
-        bins = reduce_to_bins(latlong, 2, 1);
+        bins.assign(2, Bin{});
+        level0_row(0, bins.data());
     } else {
         // The finest k levels straight from the reduction, 2^k level-0 rows
         // per task, coarsened on the way: only level k's exact bins are kept
         // (1/4^k of level 0's, which is never whole in memory).
         const int k = w >= 8 ? 2 : 1, block = 1 << k;
-        const BinReduction red(latlong, w, w / 2);
         LevelFiller* fine[2];
         for (int l = 0; l < k; ++l) fine[l] = add_level(w >> l);
         const int kw = w >> k, kh = kw / 2;
@@ -225,7 +231,7 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
         parallel_for(0, kh, [&](int y) {
             thread_local std::vector<Bin> cur, next;
             cur.resize(size_t(block) * w);
-            for (int r = 0; r < block; ++r) red.row(y * block + r, &cur[size_t(r) * w]);
+            for (int r = 0; r < block; ++r) level0_row(y * block + r, &cur[size_t(r) * w]);
             int cw = w, rows = block;
             for (int l = 0; l < k; ++l) {
                 for (int r = 0; r < rows; ++r) fine[l]->row((y * block >> l) + r, &cur[size_t(r) * cw]);
@@ -254,6 +260,65 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
         bins = std::move(coarser);
         w /= 2;
     }
+    return tree;
+}
+
+}  // namespace
+
+BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, int keep_w,
+                       const BinTreeOptions& options) {
+    double mean[3];
+    if (options.channel_mean) std::copy(options.channel_mean, options.channel_mean + 3, mean);
+    else channel_mean(latlong, mean);
+    const int w = std::max(2, finest_w);
+    const BinReduction red(latlong, w, w / 2);  // reduce_to_bins(latlong, 2, 1)'s own, at w = 2
+    return build_from_rows(
+        w, [&red](int br, Bin* out) { red.row(br, out); }, mean, keep, keep_w, options);
+}
+
+BinRowStream::BinRowStream(int img_w, int img_h, int finest_w)
+    : w_(std::max(2, finest_w)), red_(ImageView(nullptr, img_w, img_h), w_, w_ / 2),
+      bins_(size_t(w_) * (w_ / 2)), done_(w_ / 2, 0) {}
+
+void BinRowStream::add_rows(ImageView img, int y0, int y1) {
+    // Bin rows whose every source row is among y0..y1, not yet reduced.
+    std::vector<int> ready;
+    for (int br = 0; br < w_ / 2; ++br) {
+        if (done_[br]) continue;
+        const auto [first, last] = red_.source_rows(br);
+        if (first >= y0 && last <= y1) ready.push_back(br);
+    }
+    parallel_for(0, int(ready.size()), [&](int k) {
+        const int br = ready[k];
+        red_.row(img, br, &bins_[size_t(br) * w_]);
+        done_[br] = 1;
+    });
+}
+
+int BinRowStream::max_reach() const {
+    int reach = 1;
+    for (int br = 0; br < w_ / 2; ++br) {
+        const auto [first, last] = red_.source_rows(br);
+        if (last >= first) reach = std::max(reach, last - first + 1);
+    }
+    return reach;
+}
+
+int BinRowStream::pending() const {
+    int n = 0;
+    for (char d : done_) n += !d;
+    return n;
+}
+
+std::pair<int, int> BinRowStream::source_rows(int br) const { return red_.source_rows(br); }
+
+BinTree BinRowStream::finish(const double* channel_means, std::vector<Bin>* keep, int keep_w,
+                             const BinTreeOptions& options) {
+    if (pending() != 0) throw std::logic_error("BinRowStream::finish: bin rows whose source rows never came");
+    BinTree tree = build_from_rows(
+        w_, [this](int br, Bin* out) { std::copy_n(&bins_[size_t(br) * w_], w_, out); }, channel_means, keep, keep_w,
+        options);
+    std::vector<Bin>().swap(bins_);
     return tree;
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <utility>
 
 #include "iblbake/math/cube.h"
@@ -421,7 +422,18 @@ void add_row_piece(bool first, const float* src, size_t n, double v0, double v1,
 
 }  // namespace
 
-void BinReduction::row(int br, Bin* out) const {
+void BinReduction::row(int br, Bin* out) const { row(img_, br, out); }
+
+std::pair<int, int> BinReduction::source_rows(int br) const {
+    int first = std::numeric_limits<int>::max(), last = -1;  // no piece: every band serves
+    for (size_t k = first_[br]; k < rows_.size() && rows_[k].bin == br; ++k) {
+        first = std::min(first, rows_[k].texel);
+        last = std::max(last, rows_[k].texel);
+    }
+    return {first, last};
+}
+
+void BinReduction::row(ImageView img, int br, Bin* out) const {
     const size_t n = size_t(img_.width) * 3;
     thread_local std::vector<double> col;
     col.resize(5 * n);
@@ -433,7 +445,7 @@ void BinReduction::row(int br, Bin* out) const {
     bool first = true;
     for (size_t k = first_[br]; k < rows_.size() && rows_[k].bin == br; ++k, first = false) {
         const HatPiece& rp = rows_[k];
-        add_row_piece(first, img_.at(0, rp.texel), n, rp.w[0], rp.w[1], rp.w[2], rp.w[3], rp.w[4], cs0, cs1, cs2, cc0,
+        add_row_piece(first, img.at(0, rp.texel), n, rp.w[0], rp.w[1], rp.w[2], rp.w[3], rp.w[4], cs0, cs1, cs2, cc0,
                       cc1);
     }
     if (first) std::fill(col.begin(), col.end(), 0.0);  // no row piece reaches this bin row

@@ -6,6 +6,7 @@
 // means too (ChromaBin).
 #pragma once
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "iblbake/image/image.h"
@@ -101,5 +102,34 @@ struct BinTreeOptions {
 // are copied there on the way: another reduction of the same image for free.
 BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep = nullptr, int keep_w = 0,
                        const BinTreeOptions& options = {});
+
+// build_bin_tree as a source is decoded in bands (issue 28,
+// docs/design-streaming.md): add_rows() reduces every bin row of level 0
+// whose source rows (source_rows(br), the hats' reach) all lie in y0..y1 of
+// `img` (a view whose rows y0..y1 are readable, e.g. a row table into a
+// band) and keeps level 0's exact bins (w x w/2 x 144 bytes: 19 MB at 512
+// across) until finish() builds the tree from them, once the channel means
+// (the chroma test's) are known. The tree, `keep` included, equals
+// build_bin_tree(whole image, finest_w, keep, keep_w, options with those
+// means) to the bit. Bands must overlap by the rows a bin row needs beyond
+// its own (one row of hat on each side).
+class BinRowStream {
+public:
+    BinRowStream(int img_w, int img_h, int finest_w);
+    void add_rows(ImageView img, int y0, int y1);
+    std::pair<int, int> source_rows(int br) const;  // first and last source row bin row br reads
+    // The most rows one bin row reads: bands of B rows overlapping by
+    // max_reach() - 1 rows (start k at k (B - max_reach() + 1)) serve every bin row.
+    int max_reach() const;
+    int pending() const;                            // bin rows not yet reduced
+    BinTree finish(const double* channel_means, std::vector<Bin>* keep = nullptr, int keep_w = 0,
+                   const BinTreeOptions& options = {});
+
+private:
+    int w_;
+    BinReduction red_;
+    std::vector<Bin> bins_;
+    std::vector<char> done_;
+};
 
 }  // namespace iblbake

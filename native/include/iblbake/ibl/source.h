@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "iblbake/image/image.h"
@@ -129,6 +130,10 @@ public:
     int width() const { return bw_; }
     int height() const { return bh_; }
     void row(int br, Bin* out) const;  // bins (0..bw-1, br), overwritten
+    // The same from another image of the same size (only the rows
+    // source_rows(br) are read: a view of a band of rows serves).
+    void row(ImageView img, int br, Bin* out) const;
+    std::pair<int, int> source_rows(int br) const;  // first and last row bin row br reads
 
 private:
     ImageView img_;
