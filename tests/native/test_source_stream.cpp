@@ -169,3 +169,70 @@ TEST(BinRowStream, BandsEqualTheWholeImage) {
     }
     EXPECT_GT(chroma, 0u) << "no bin of varying colour: the chroma rows went untested";
 }
+
+// ibl::HotStream: the hot split from bands of rows equals split_hot's.
+namespace {
+
+void expect_same_split(const HotSplit& a, const HotSplit& b) {
+    EXPECT_TRUE(same_bits(a.threshold, b.threshold)) << a.threshold << " " << b.threshold;
+    EXPECT_TRUE(same_bits(a.hot_power_fraction, b.hot_power_fraction));
+    ASSERT_EQ(a.texels.size(), b.texels.size());
+    ASSERT_EQ(a.hot.size(), b.hot.size());
+    for (size_t k = 0; k < a.texels.size(); ++k) {
+        EXPECT_EQ(a.texels[k].x, b.texels[k].x) << k;
+        EXPECT_EQ(a.texels[k].y, b.texels[k].y) << k;
+        EXPECT_TRUE(same_bits(a.texels[k].removed, b.texels[k].removed)) << k;
+        EXPECT_EQ(0, std::memcmp(&a.hot[k], &b.hot[k], sizeof(RadiancePoint))) << k;
+    }
+}
+
+HotSplit hot_in_bands(const Image& img, int band, bool backwards, int max_hot, double rel, const HotRows& rows) {
+    HotStream stream(img.width, img.height, max_hot);
+    std::vector<int> starts;
+    for (int y = 0; y < img.height; y += band) starts.push_back(y);
+    if (backwards) std::reverse(starts.begin(), starts.end());
+    for (int y0 : starts) {
+        const int n = std::min(band, img.height - y0);
+        std::vector<const float*> r(n);
+        for (int k = 0; k < n; ++k) r[k] = img.at(0, y0 + k);
+        stream.add_rows(r.data(), y0, n);
+    }
+    return stream.finish(rel, rows);
+}
+
+}  // namespace
+
+TEST(HotStream, BandsEqualSplitHot) {
+    struct World {
+        const char* what;
+        int hot;     // texels made bright
+        bool ties;   // every bright texel the same value
+    };
+    for (const World& world : {World{"no hot texel", 0, false}, World{"ten", 10, false},
+                               World{"1500 (more than max_hot)", 1500, false}, World{"50000", 50000, false},
+                               World{"2000 equal ones", 2000, true}}) {
+        Image img = ref::random_smooth_source(400, 200, 3);
+        unsigned state = 12345;
+        for (int k = 0; k < world.hot; ++k) {
+            state = state * 1664525u + 1013904223u;
+            const int x = int(state >> 8) % img.width, y = int(state >> 20) % img.height;
+            img.at(x, y)[k % 3] = world.ties ? 1e4f : 1e3f + float(k % 977);
+        }
+        const SourceSummary summary = summarize_source(img);
+        for (int max_hot : {0, 1, 64, 1024, 100000})
+            for (double rel : {16.0, 0.5}) {
+                SCOPED_TRACE(testing::Message() << world.what << ", max_hot " << max_hot << ", rel " << rel);
+                const HotSplit expected = split_hot(img, rel, max_hot, &summary.hot);
+                EXPECT_LE(expected.hot.size(), size_t(std::max(0, max_hot)));
+                if (world.hot == 1500 && max_hot == 1024) {
+                    EXPECT_GT(expected.hot.size(), 500u) << "max_hot decides";
+                }
+                if (world.hot == 10 && max_hot >= 64) {
+                    EXPECT_GE(expected.hot.size(), 10u) << "the relative threshold decides";
+                }
+                for (int band : {1, 7, 200})
+                    for (bool backwards : {false, true})
+                        expect_same_split(hot_in_bands(img, band, backwards, max_hot, rel, summary.hot), expected);
+            }
+    }
+}

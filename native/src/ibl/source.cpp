@@ -255,9 +255,66 @@ HotRows hot_rows(ImageView img) {
     return r;
 }
 
+namespace {
+
+// A texel that may be hot: where, its largest channel, its value.
+struct HotCandidate {
+    int x, y;
+    float m;
+    float rgb[3];
+};
+
+// split_hot's points of the texels above out.threshold (given in row-major
+// order), and the hot power's fraction of total_power.
+void make_hot_points(HotSplit& out, int w, int h, const std::vector<HotCandidate>& hot, double total_power) {
+    const LatLongTables tab(w, h);
+    // A texel's value reaches the sphere through its hats (SPEC's bilinear
+    // L): its point carries the hats' integrals (over the whole sphere).
+    const std::vector<HatPiece> lon_hats = hat_pieces_lon(w, 1), lat_hats = hat_pieces_lat(h, 1);
+    double hot_power = 0.0;
+    const double threshold = out.threshold;
+    for (const HotCandidate& c : hot) {
+        {
+            const int x = c.x, y = c.y;
+            const float m = c.m;
+            const float* px = c.rgb;
+            const float scale = float(threshold / m);
+            HotTexel t{x, y, {0, 0, 0}};
+            RadiancePoint p;
+            const Vec3d d = tab.engine_dir(x, y);
+            const double* U = lon_hats[x].w;
+            const double* V = lat_hats[y].w;
+            const double om = U[0] * V[0];
+            const Vec3d md = Vec3d{U[1] * V[3], U[0] * V[1], -U[2] * V[3]} / om;
+            p.dir[0] = float(d.x); p.dir[1] = float(d.y); p.dir[2] = float(d.z);
+            p.mean_dir[0] = float(md.x); p.mean_dir[1] = float(md.y); p.mean_dir[2] = float(md.z);
+            {
+                Bin one{};
+                const double unit[3] = {1.0, 0.0, 0.0}, s0[3] = {V[0], 0, 0}, s1[3] = {V[1], 0, 0},
+                             s2[3] = {V[2], 0, 0}, c0[3] = {V[3], 0, 0}, c1[3] = {V[4], 0, 0};
+                add_hat_product(one, unit, s0, s1, s2, c0, c1, U);
+                const double* sm = one.second;
+                const double cv[6] = {sm[0] / om - md.x * md.x, sm[1] / om - md.y * md.y, sm[2] / om - md.z * md.z,
+                                      sm[3] / om - md.x * md.y, sm[4] / om - md.x * md.z, sm[5] / om - md.y * md.z};
+                for (int k = 0; k < 6; ++k) p.cov[k] = float(cv[k]);
+            }
+            for (int k = 0; k < 3; ++k) {
+                const float rest = px[k] * scale;
+                t.removed[k] = px[k] - rest;
+                p.power[k] = float(double(t.removed[k]) * om);
+                hot_power += p.power[k];
+            }
+            out.texels.push_back(t);
+            out.hot.push_back(p);
+        }
+    }
+    out.hot_power_fraction = total_power > 0.0 ? hot_power / total_power : 0.0;
+}
+
+}  // namespace
+
 HotSplit split_hot(ImageView img, double relative_threshold, int max_hot, const HotRows* rows) {
     const int w = img.width, h = img.height;
-    const LatLongTables tab(w, h);
     HotSplit out;
     HotRows own;
     if (!rows) {
@@ -293,45 +350,14 @@ HotSplit split_hot(ImageView img, double relative_threshold, int max_hot, const 
         threshold = above[max_hot];
     }
     out.threshold = threshold;
-
-    // A texel's value reaches the sphere through its hats (SPEC's bilinear
-    // L): its point carries the hats' integrals (over the whole sphere).
-    const std::vector<HatPiece> lon_hats = hat_pieces_lon(w, 1), lat_hats = hat_pieces_lat(h, 1);
-    double hot_power = 0.0;
+    std::vector<HotCandidate> hot;
     for (int y = 0; y < h; ++y)
         for (const auto& [x, m] : row_cands[y]) {
             if (!(m > threshold)) continue;
             const float* px = img.at(x, y);
-            const float scale = float(threshold / m);
-            HotTexel t{x, y, {0, 0, 0}};
-            RadiancePoint p;
-            const Vec3d d = tab.engine_dir(x, y);
-            const double* U = lon_hats[x].w;
-            const double* V = lat_hats[y].w;
-            const double om = U[0] * V[0];
-            const Vec3d md = Vec3d{U[1] * V[3], U[0] * V[1], -U[2] * V[3]} / om;
-            p.dir[0] = float(d.x); p.dir[1] = float(d.y); p.dir[2] = float(d.z);
-            p.mean_dir[0] = float(md.x); p.mean_dir[1] = float(md.y); p.mean_dir[2] = float(md.z);
-            {
-                Bin one{};
-                const double unit[3] = {1.0, 0.0, 0.0}, s0[3] = {V[0], 0, 0}, s1[3] = {V[1], 0, 0},
-                             s2[3] = {V[2], 0, 0}, c0[3] = {V[3], 0, 0}, c1[3] = {V[4], 0, 0};
-                add_hat_product(one, unit, s0, s1, s2, c0, c1, U);
-                const double* sm = one.second;
-                const double cv[6] = {sm[0] / om - md.x * md.x, sm[1] / om - md.y * md.y, sm[2] / om - md.z * md.z,
-                                      sm[3] / om - md.x * md.y, sm[4] / om - md.x * md.z, sm[5] / om - md.y * md.z};
-                for (int k = 0; k < 6; ++k) p.cov[k] = float(cv[k]);
-            }
-            for (int k = 0; k < 3; ++k) {
-                const float rest = px[k] * scale;
-                t.removed[k] = px[k] - rest;
-                p.power[k] = float(double(t.removed[k]) * om);
-                hot_power += p.power[k];
-            }
-            out.texels.push_back(t);
-            out.hot.push_back(p);
+            hot.push_back({x, y, m, {px[0], px[1], px[2]}});
         }
-    out.hot_power_fraction = total_power > 0.0 ? hot_power / total_power : 0.0;
+    make_hot_points(out, w, h, hot, total_power);
     return out;
 }
 
@@ -636,6 +662,75 @@ SourceSummary SummaryStream::finish() {
     out.sh9 = m.sh.total();
     out.sh9_rows = m.sh.take_rows();
     out.hot = std::move(m.hot);
+    return out;
+}
+
+// The heap's order: the largest channel, then the position (any strict
+// order does: only the values decide the threshold).
+struct HotStream::Entry {
+    float m;
+    int x, y;
+    float rgb[3];
+};
+
+namespace {
+bool larger(const HotStream::Entry& a, const HotStream::Entry& b) {
+    if (a.m != b.m) return a.m > b.m;
+    return a.y != b.y ? a.y < b.y : a.x < b.x;
+}
+}  // namespace
+
+HotStream::HotStream(int width, int height, int max_hot)
+    : w_(width), h_(height), keep_(size_t(std::max(0, max_hot)) + 1) {}
+
+HotStream::~HotStream() = default;
+
+void HotStream::add_rows(const float* const* rows, int y0, int n) {
+    // Texels above the heap's floor (its smallest once full), per row in
+    // parallel, then merged: a stale floor only admits more candidates.
+    const float floor = top_.size() >= keep_ ? top_.front().m : -1.0f;
+    std::vector<std::vector<Entry>> found(n);
+    parallel_for(0, n, [&](int k) {
+        const float* row = rows[k];
+        for (int x = 0; x < w_; ++x) {
+            const float* px = row + size_t(x) * 3;
+            const float m = max3(px);
+            if (m > floor) found[k].push_back({m, x, y0 + k, {px[0], px[1], px[2]}});
+        }
+    });
+    for (const std::vector<Entry>& f : found)
+        for (const Entry& e : f) {
+            if (top_.size() < keep_) {
+                top_.push_back(e);
+                std::push_heap(top_.begin(), top_.end(), larger);  // front: the smallest kept
+            } else if (larger(e, top_.front())) {
+                std::pop_heap(top_.begin(), top_.end(), larger);
+                top_.back() = e;
+                std::push_heap(top_.begin(), top_.end(), larger);
+            }
+        }
+}
+
+HotSplit HotStream::finish(double relative_threshold, const HotRows& rows) {
+    double mean = 0.0, total_power = 0.0;
+    for (int y = 0; y < h_; ++y) {
+        mean += rows.mean[y];
+        total_power += rows.power[y];
+    }
+    mean /= 4.0 * kPi;
+    double threshold = relative_threshold * mean;
+    // split_hot's rule: the (max_hot + 1)-th largest value when more than
+    // max_hot texels lie above the relative threshold (with max_hot <= 0 the
+    // largest, when any does). The heap holds the keep_ largest values.
+    if (top_.size() == keep_ && double(top_.front().m) > threshold) threshold = double(top_.front().m);
+    HotSplit out;
+    out.threshold = threshold;
+    std::vector<HotCandidate> hot;
+    std::vector<Entry> kept = top_;
+    std::sort(kept.begin(), kept.end(), [](const Entry& a, const Entry& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
+    for (const Entry& e : kept)
+        if (e.m > threshold) hot.push_back({e.x, e.y, e.m, {e.rgb[0], e.rgb[1], e.rgb[2]}});
+    make_hot_points(out, w_, h_, hot, total_power);
     return out;
 }
 

@@ -196,5 +196,27 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
+// split_hot as a source is decoded in bands (issue 28): add_rows() keeps the
+// max_hot + 1 texels of largest max channel seen so far (value, place,
+// colour: 24 bytes each), which is all the threshold and the hot texels
+// need; finish() with the summary's hot rows (the mean) gives what
+// split_hot(img, relative_threshold, max_hot, &rows) gives, to the bit.
+// Rows of clean values, each once, in any order.
+class HotStream {
+public:
+    HotStream(int width, int height, int max_hot);
+    ~HotStream();
+    HotStream(const HotStream&) = delete;
+    HotStream& operator=(const HotStream&) = delete;
+    void add_rows(const float* const* rows, int y0, int n);
+    HotSplit finish(double relative_threshold, const HotRows& rows);
+    struct Entry;
+
+private:
+    int w_, h_;
+    size_t keep_;
+    std::vector<Entry> top_;  // a heap, its smallest in front
+};
+
 
 }  // namespace iblbake
