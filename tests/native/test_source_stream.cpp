@@ -10,6 +10,7 @@
 
 #include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/source.h"
+#include "iblbake/ibl/specular.h"
 #include "reference.h"
 
 using namespace iblbake;
@@ -235,4 +236,35 @@ TEST(HotStream, BandsEqualSplitHot) {
                         expect_same_split(hot_in_bands(img, band, backwards, max_hot, rel, summary.hot), expected);
             }
     }
+}
+
+// ibl::MirrorStream: mip 0 (r = 0 lookups) from bands of rows equals
+// specular_mirror on the whole image.
+TEST(MirrorStream, BandsEqualSpecularMirror) {
+    for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {3, 2}, {301, 150}, {1024, 512}})
+        for (int n : {1, 7, 64, 256}) {
+            const Image img = ref::random_smooth_source(w, h, 17);
+            Cubemap expected(n);
+            specular_mirror(expected, img);
+            for (int band : {2, 5, 64, h + 1}) {
+                if (band > h + 1) continue;
+                SCOPED_TRACE(testing::Message() << w << " x " << h << ", n " << n << ", bands of " << band);
+                Cubemap streamed(n);
+                std::fill(streamed.pixels.begin(), streamed.pixels.end(), -1.0f);
+                MirrorStream stream(streamed, w, h);
+                std::vector<const float*> table(h, nullptr);
+                for (int y0 = 0;; y0 += std::max(1, band - 1)) {  // bands overlapping by one row
+                    const int y1 = std::min(h - 1, y0 + band - 1);
+                    std::fill(table.begin(), table.end(), nullptr);
+                    for (int y = y0; y <= y1; ++y) table[y] = img.at(0, y);
+                    ImageView v(nullptr, w, h);
+                    v.rows = table.data();
+                    stream.add_rows(v, y0, y1);
+                    if (y1 == h - 1) break;
+                }
+                EXPECT_EQ(stream.pending(), 0u);
+                EXPECT_EQ(0, std::memcmp(streamed.pixels.data(), expected.pixels.data(),
+                                         expected.pixels.size() * sizeof(float)));
+            }
+        }
 }

@@ -148,6 +148,110 @@ void specular_mirror(Cubemap& dst, ImageView latlong) {
 }
 
 namespace {
+// The two source rows a lookup at fy reads (bilinear_row's clamping).
+inline void rows_of(double fy, int h, int& lo, int& hi) {
+    const int y0 = int(std::floor(fy));
+    lo = std::clamp(y0, 0, h - 1);
+    hi = std::clamp(y0 + 1, 0, h - 1);
+}
+void frame_of_face(int f, double* frame) {
+    const FaceFrame& fr = kFaceFrames[f];
+    const double v[9] = {fr.ma.x, fr.ma.y, fr.ma.z, fr.s.x, fr.s.y, fr.s.z, fr.t.x, fr.t.y, fr.t.z};
+    std::copy(v, v + 9, frame);
+}
+constexpr int kSideFaces[4] = {0, 1, 4, 5};
+}  // namespace
+
+MirrorStream::MirrorStream(Cubemap& dst, int src_w, int src_h)
+    : dst_(dst), n_(dst.size), w_(src_w), h_(src_h) {
+    const int n = n_;
+    const kernel::MirrorRowFn coords = kernel::mirror_row_fn();
+    side_fx_.resize(size_t(4) * n);
+    std::vector<double> scratch(n);
+    for (int s = 0; s < 4; ++s) {
+        double frame[9];
+        frame_of_face(kSideFaces[s], frame);
+        coords(frame, 0.0, n, w_, h_, side_fx_.data() + size_t(s) * n, scratch.data());
+    }
+    side_fy_.resize(size_t(n) * n);
+    side_done_.assign(size_t(n) * n, 0);
+    polar_fx_.resize(size_t(2) * n * n);
+    polar_fy_.resize(size_t(2) * n * n);
+    parallel_for(0, 3 * n, [&](int task) {
+        std::vector<double> fx(n);
+        double frame[9];
+        if (task < n) {
+            frame_of_face(0, frame);
+            coords(frame, 2.0 * (task + 0.5) / n - 1.0, n, w_, h_, fx.data(), side_fy_.data() + size_t(task) * n);
+            return;
+        }
+        const int row = task - n, f = 2 + row / n, j = row % n;
+        frame_of_face(f, frame);
+        const size_t at = (size_t(f - 2) * n + j) * n;
+        coords(frame, 2.0 * (j + 0.5) / n - 1.0, n, w_, h_, polar_fx_.data() + at, polar_fy_.data() + at);
+    });
+    polar_order_.resize(polar_fy_.size());
+    std::vector<int> lo(polar_fy_.size());
+    for (size_t k = 0; k < lo.size(); ++k) {
+        int hi;
+        rows_of(polar_fy_[k], h_, lo[k], hi);
+        polar_order_[k] = uint32_t(k);
+    }
+    std::stable_sort(polar_order_.begin(), polar_order_.end(), [&](uint32_t a, uint32_t b) { return lo[a] < lo[b]; });
+    polar_lo_.resize(lo.size());
+    for (size_t k = 0; k < lo.size(); ++k) polar_lo_[k] = lo[polar_order_[k]];
+    polar_done_.assign(lo.size(), 0);
+    pending_ = size_t(6) * n * n;
+}
+
+void MirrorStream::add_rows(ImageView img, int y0, int y1) {
+    const int n = n_, w = w_, h = h_;
+    auto at = [&img](int x, int y) { return img.at(x, y); };
+    std::atomic<size_t> done{0};
+    // Side faces, column by column: a texel is ready when both its rows are
+    // in the band (its rows grow with j, up to rounding: the whole column is
+    // tested, cheaply, against the band).
+    parallel_for(0, n, [&](int i) {
+        size_t here = 0;
+        for (int j = 0; j < n; ++j) {
+            const size_t k = size_t(j) * n + i;
+            if (side_done_[k]) continue;
+            int lo, hi;
+            rows_of(side_fy_[k], h, lo, hi);
+            if (lo < y0 || hi > y1) continue;
+            for (int s = 0; s < 4; ++s)
+                bilinear_row(at, w, h, side_fx_.data() + size_t(s) * n + i, &side_fy_[k], 1,
+                             dst_.at(kSideFaces[s], i, j));
+            side_done_[k] = 1;
+            here += 4;
+        }
+        done += here;
+    });
+    // Top and bottom faces: the texels whose first row is in the band.
+    const size_t first = size_t(std::lower_bound(polar_lo_.begin(), polar_lo_.end(), y0) - polar_lo_.begin());
+    const size_t last = size_t(std::upper_bound(polar_lo_.begin(), polar_lo_.end(), y1) - polar_lo_.begin());
+    const int chunks = int(std::min<size_t>(256, last - first));
+    parallel_for(0, chunks, [&](int c) {
+        const size_t a = first + (last - first) * size_t(c) / size_t(chunks);
+        const size_t b = first + (last - first) * size_t(c + 1) / size_t(chunks);
+        size_t here = 0;
+        for (size_t q = a; q < b; ++q) {
+            if (polar_done_[q]) continue;
+            const uint32_t k = polar_order_[q];
+            int lo, hi;
+            rows_of(polar_fy_[k], h, lo, hi);
+            if (hi > y1) continue;
+            const int f = 2 + int(k / (size_t(n) * n)), j = int(k / n % n), i = int(k % n);
+            bilinear_row(at, w, h, &polar_fx_[k], &polar_fy_[k], 1, dst_.at(f, i, j));
+            polar_done_[q] = 1;
+            ++here;
+        }
+        done += here;
+    });
+    pending_ -= done.load();
+}
+
+namespace {
 
 // Exact kernel sum of the hot points for one direction, divided by Z(alpha).
 void hot_term(const std::vector<RadiancePoint>& hot, const Vec3& n, float alpha, float inv_z, float out[3]) {

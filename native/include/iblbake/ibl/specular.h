@@ -2,6 +2,7 @@
 //   Pre(n, r) = int L(w) D(h) max(0, n.w) dw / int D(h) max(0, n.w) dw.
 #pragma once
 #include <string>
+#include <cstdint>
 #include <vector>
 
 #include "iblbake/ibl/bin_tree.h"
@@ -35,6 +36,34 @@ std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQu
 
 // Mip 0 (r = 0): the bilinear source lookup L(n) at every texel centre.
 void specular_mirror(Cubemap& dst, ImageView latlong);
+
+// specular_mirror as a source is decoded in bands (issue 28,
+// docs/design-streaming.md): add_rows() looks up every texel of `dst` both
+// of whose source rows lie in y0..y1 of `img` (a view whose rows y0..y1 are
+// readable), once. Every texel is written once pending() is 0, equal to the
+// bit to specular_mirror(dst, whole image). The side faces' texels are
+// found per column (their rows grow with j), the top and bottom faces' by a
+// list sorted by source row. Holds the lookups' coordinates: n^2 doubles
+// for the side faces and 4 n^2 for the others (40 MB at n = 1024). Bands
+// that overlap by one row serve every texel.
+class MirrorStream {
+public:
+    MirrorStream(Cubemap& dst, int src_w, int src_h);
+    void add_rows(ImageView img, int y0, int y1);
+    size_t pending() const { return pending_; }
+
+private:
+    Cubemap& dst_;
+    int n_, w_, h_;
+    std::vector<double> side_fx_;        // 4 faces x n columns
+    std::vector<double> side_fy_;        // n rows x n columns (every side face's)
+    std::vector<char> side_done_;        // n x n
+    std::vector<double> polar_fx_, polar_fy_;  // 2 faces x n x n
+    std::vector<uint32_t> polar_order_;  // polar texels by first source row
+    std::vector<int> polar_lo_;          // their first source rows, in that order
+    std::vector<char> polar_done_;
+    size_t pending_ = 0;
+};
 
 // Level for roughness r > 0: filtered importance sampling of `rest` plus the
 // exact kernel sum over the hot points divided by the analytic normaliser.
