@@ -29,6 +29,9 @@
 
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/row_reader.h"
+#include "iblbake/ibl/bin_tree.h"
+#include "iblbake/ibl/source.h"
+#include "iblbake/ibl/specular.h"
 
 namespace fs = std::filesystem;
 using namespace iblbake;
@@ -273,4 +276,101 @@ TEST(ExrRowReader, LargeSourceFromEnvironment) {
         std::vector<float>().swap(band_rows);
     }
     expect_same_as_read_image(path, {1000});  // bands of 1 row decode each block 16 times
+}
+
+// The streaming pass a bake will make (docs/design-streaming.md, step 6),
+// composed from steps 1 to 5 over a file named by IBLBAKE_STREAM_SOURCE
+// (skipped without; IBLBAKE_STREAM_FACE sets mip 0's face, 256 by
+// default): the file decoded in bands into a ring that keeps the rows the
+// bins need beyond a band, each band cleaned and summarized, the hot heap,
+// the finest bins (512 across) and mip 0 fed. Prints the pass's time and
+// peak RSS, then checks every result against the whole-image functions.
+TEST(StreamingPass, FromEnvironment) {
+    const char* path = std::getenv("IBLBAKE_STREAM_SOURCE");
+    if (!path || !*path) GTEST_SKIP() << "set IBLBAKE_STREAM_SOURCE to an EXR file";
+    const char* face_env = std::getenv("IBLBAKE_STREAM_FACE");
+    const int face = face_env ? std::atoi(face_env) : 256, finest = 512, keep_w = 128, max_hot = 1024;
+    const double rel = 16.0;
+    Cubemap mip0(face);
+    SourceSummary summary;
+    BinTree tree;
+    std::vector<Bin> keep;
+    HotSplit hot;
+    int w = 0, h = 0;
+    {
+        const auto t0 = std::chrono::steady_clock::now();
+        io::ExrRowReader reader(path);
+        w = reader.width(), h = reader.height();
+        SummaryStream sum(w, h);
+        HotStream hots(w, h, max_hot);
+        BinRowStream bins(w, h, finest);
+        MirrorStream mirror(mip0, w, h);
+        const int keep_rows = std::max(1, bins.max_reach() - 1);  // rows a band keeps from the last
+        const int band = std::max(reader.preferred_band(), bins.max_reach());
+        const size_t row = size_t(w) * 3;
+        std::vector<float> ring(size_t(keep_rows + band) * row);
+        std::vector<const float*> table(h, nullptr);
+        int have0 = 0, have1 = -1;  // rows in the ring: have0 .. have1, from ring's start
+        for (int y0 = 0; y0 < h; y0 += band) {
+            const int n = std::min(band, h - y0);
+            // Keep the last keep_rows rows at the front, the new band after them.
+            const int kept = std::min(keep_rows, have1 - have0 + 1);
+            if (kept > 0) std::memmove(ring.data(), ring.data() + size_t(have1 - have0 + 1 - kept) * row, kept * row * sizeof(float));
+            have0 = y0 - kept;
+            float* fresh = ring.data() + size_t(kept) * row;
+            reader.read(y0, n, fresh);
+            have1 = y0 + n - 1;
+            std::vector<float*> rows(n);
+            for (int k = 0; k < n; ++k) rows[k] = fresh + size_t(k) * row;
+            sum.add_rows(rows.data(), y0, n);
+            hots.add_rows(rows.data(), y0, n);
+            std::fill(table.begin(), table.end(), nullptr);
+            for (int y = have0; y <= have1; ++y) table[y] = ring.data() + size_t(y - have0) * row;
+            ImageView v(nullptr, w, h);
+            v.rows = table.data();
+            bins.add_rows(v, have0, have1);
+            mirror.add_rows(v, have0, have1);
+        }
+        ASSERT_EQ(bins.pending(), 0);
+        ASSERT_EQ(mirror.pending(), 0u);
+        summary = sum.finish();
+        double mean[3];
+        for (int c = 0; c < 3; ++c) mean[c] = summary.sh9[c][0] / (2.0 * std::sqrt(M_PI));
+        BinTreeOptions options;
+        options.channel_mean = mean;
+        tree = bins.finish(mean, &keep, keep_w, options);
+        hot = hots.finish(rel, summary.hot);
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        rusage ru{};
+        getrusage(RUSAGE_SELF, &ru);
+        std::printf("streaming pass (bands of %d rows + %d kept, face %d, finest %d): %.3f s, peak RSS so far %.1f MB\n",
+                    band, keep_rows, face, finest, s, ru.ru_maxrss / 1000.0);
+    }
+    // The whole image, as the bake reads it today.
+    io::LoadedImage whole = io::read_image(path);
+    SourceSummary ws = summarize_source(whole.image);
+    clean_bad_rows(whole.image, ws.scan);
+    refresh_summary_rows(ws, whole.image, ws.scan.bad_rows);
+    EXPECT_EQ(0, std::memcmp(&ws.sh9, &summary.sh9, sizeof(ws.sh9)));
+    double mean[3];
+    for (int c = 0; c < 3; ++c) mean[c] = ws.sh9[c][0] / (2.0 * std::sqrt(M_PI));
+    BinTreeOptions options;
+    options.channel_mean = mean;
+    std::vector<Bin> wkeep;
+    const BinTree wt = build_bin_tree(whole.image, finest, &wkeep, keep_w, options);
+    ASSERT_EQ(wt.levels.size(), tree.levels.size());
+    for (size_t l = 0; l < wt.levels.size(); ++l)
+        EXPECT_EQ(0, std::memcmp(wt.levels[l].nodes.data(), tree.levels[l].nodes.data(),
+                                 size_t(wt.levels[l].w) * wt.levels[l].h * sizeof(BinNode)));
+    ASSERT_EQ(wkeep.size(), keep.size());
+    EXPECT_EQ(0, std::memcmp(wkeep.data(), keep.data(), keep.size() * sizeof(Bin)));
+    const HotSplit wh = split_hot(whole.image, rel, max_hot, &ws.hot);
+    ASSERT_EQ(wh.hot.size(), hot.hot.size());
+    EXPECT_EQ(wh.threshold, hot.threshold);
+    if (!wh.hot.empty()) {
+        EXPECT_EQ(0, std::memcmp(wh.hot.data(), hot.hot.data(), wh.hot.size() * sizeof(RadiancePoint)));
+    }
+    Cubemap wm(face);
+    specular_mirror(wm, whole.image);
+    EXPECT_EQ(0, std::memcmp(wm.pixels.data(), mip0.pixels.data(), wm.pixels.size() * sizeof(float)));
 }
