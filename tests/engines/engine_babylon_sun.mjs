@@ -27,7 +27,7 @@ import path from 'node:path';
 import { run, b64ToF32, fmt } from './lib/harness.mjs';
 import { normalize, dot } from './lib/cube.mjs';
 import { rgbAt, writeSheet } from './lib/sphere.mjs';
-import { smoothIrradiance } from './lib/reference.mjs';
+import { smoothIrradiance, discIrradiance } from './lib/reference.mjs';
 import { valueCheck } from './lib/checks.mjs';
 
 const S = 129;
@@ -167,22 +167,7 @@ await run('babylon_sun', async (s) => {
   const worldN = (N) => [-N[0], N[1], N[2]];    // view space (camera on +Z looking -Z, left-handed) -> Babylon world
   const toSpec = (d) => [-d[0], d[1], d[2]];    // Babylon's world -> SPEC, as the babylon preset's .env is stored
   // Exact irradiance (engine_three's model): the smooth sky's closed form plus the disc's cosine integral, SPEC axes.
-  const sunDesc = sources.sun, DS = normalize(sunDesc.direction), rad = sunDesc.radius_deg * Math.PI / 180;
-  const a0 = Math.abs(DS[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];
-  const t1 = normalize([a0[1] * DS[2] - a0[2] * DS[1], a0[2] * DS[0] - a0[0] * DS[2], a0[0] * DS[1] - a0[1] * DS[0]]);
-  const t2 = [DS[1] * t1[2] - DS[2] * t1[1], DS[2] * t1[0] - DS[0] * t1[2], DS[0] * t1[1] - DS[1] * t1[0]];
-  const discIrr = (N) => {
-    let sum = 0;
-    const nr = 24, np = 48;
-    for (let i = 0; i < nr; i++) {
-      const th = (i + 0.5) * rad / nr, st = Math.sin(th), ct = Math.cos(th);
-      for (let k = 0; k < np; k++) {
-        const ph = (k + 0.5) * 2 * Math.PI / np, cp = Math.cos(ph) * st, sp = Math.sin(ph) * st;
-        sum += Math.max(0, dot(N, [0, 1, 2].map((q) => DS[q] * ct + t1[q] * cp + t2[q] * sp))) * st;
-      }
-    }
-    return sunDesc.radiance.map((l) => l * sum * (rad / nr) * (2 * Math.PI / np) / Math.PI);
-  };
+  const discIrr = (n) => discIrradiance(sources.sun, n);
   const band = 0.1;
   const far = (N) => Math.abs(dot(worldN(N), D)) >= band;
   const exactAt = (x, y, N) => {

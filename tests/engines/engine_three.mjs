@@ -10,7 +10,7 @@ import { readKtx2File, packKtx2 } from './lib/ktx2pack.mjs';
 import { readCross } from './lib/exr.mjs';
 import { reflect, mix, pixelNormal, rgbAt, writeSheet, relDiff } from './lib/sphere.mjs';
 import { orientationCheck, valueCheck } from './lib/checks.mjs';
-import { prefiltered, chainTruth, markerSource, smoothIrradiance } from './lib/reference.mjs';
+import { prefiltered, chainTruth, markerSource, smoothIrradiance, discIrradiance } from './lib/reference.mjs';
 import { loadBakes, snippetFor, expectedLevels } from './lib/data.mjs';
 
 const S = 129;                       // odd: the centre pixel sees N = V exactly
@@ -227,7 +227,7 @@ await run('three', async (s) => {
   // measured against the exact irradiance (the smooth sky's closed form plus
   // the disc's own cosine integral) and must be at least as close as the
   // original environment.
-  const sunDesc = sunSplit.sources.sun, D = normalize(sunDesc.direction), rad = sunDesc.radius_deg * Math.PI / 180;
+  const sunDesc = sunSplit.sources.sun, D = normalize(sunDesc.direction);
   const band = 0.1;
   const sameAsOriginal = (px, nearToo = false) => valueCheck(px, S, (x, y, N) =>
     (nearToo || Math.abs(dot(N, D)) >= band ? rgbAt(withSun, S, x, y).slice(0, 3) : null),
@@ -235,21 +235,7 @@ await run('three', async (s) => {
   const sunCheck = sameAsOriginal(lit);
   sunCheck.message += ` (pixels with N.V >= 0.05 and |N.d| >= ${band})`;
   s.expect('sun: sun-free three preset + sun.gltf = the original environment alone (white diffuse sphere, 1 %)', sunCheck);
-  const [t1, t2] = (() => { const a = Math.abs(D[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0]; const t = normalize([a[1] * D[2] - a[2] * D[1], a[2] * D[0] - a[0] * D[2], a[0] * D[1] - a[1] * D[0]]); return [t, [D[1] * t[2] - D[2] * t[1], D[2] * t[0] - D[0] * t[2], D[0] * t[1] - D[1] * t[0]]]; })();
-  const discIrr = (N) => {  // (1/pi) integral over the disc of L max(0, N.w) dw, polar midpoint rule
-    let sum = 0;
-    const nr = 24, np = 48;
-    for (let i = 0; i < nr; i++) {
-      const th = (i + 0.5) * rad / nr, st = Math.sin(th), ct = Math.cos(th);
-      for (let k = 0; k < np; k++) {
-        const ph = (k + 0.5) * 2 * Math.PI / np, cp = Math.cos(ph) * st, sp = Math.sin(ph) * st;
-        const w = [0, 1, 2].map((q) => D[q] * ct + t1[q] * cp + t2[q] * sp);
-        sum += Math.max(0, dot(N, w)) * st;
-      }
-    }
-    const f = sum * (rad / nr) * (2 * Math.PI / np) / Math.PI;
-    return sunDesc.radiance.map((l) => l * f);
-  };
+  const discIrr = (N) => discIrradiance(sunDesc, N);
   let farSplit = { d: 0 }, farOrig = { d: 0 };
   for (let y = 0; y < S; y++) for (let x = 0; x < S; x++) {
     const N = pixelNormal(S, x, y);

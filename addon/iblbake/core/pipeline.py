@@ -121,14 +121,6 @@ def settings_hash(source: WorldSource, settings: BakeSettings, needs: Optional[N
     return hashlib.sha256(json.dumps(meta, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def file_sha256(path: str) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def existing_hash(out_dir: str) -> Optional[str]:
     """The content hash of the complete, intact bake in out_dir, if there is
     one: every file the manifest lists (`files`: size and sha256) must be

@@ -108,6 +108,28 @@ export function smoothIrradiance(desc, n) {
   return [0, 1, 2].map((ch) => c[ch] + (2 / 3) * dot(d[ch], n) + 0.25 * quad(q[ch], n));
 }
 
+// Irradiance of a uniform sun disc (sources.json's `sun`: direction, radius_deg,
+// radiance) at normal N: (1/pi) integral over the disc of L max(0, N.w) dw, a
+// polar midpoint rule (24 x 48) about the disc's centre. Exact where the disc
+// straddles the horizon, where a point light is not.
+export function discIrradiance(sun, N) {
+  const D = normalize(sun.direction), rad = sun.radius_deg * Math.PI / 180;
+  const a = Math.abs(D[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];
+  const t1 = normalize([a[1] * D[2] - a[2] * D[1], a[2] * D[0] - a[0] * D[2], a[0] * D[1] - a[1] * D[0]]);
+  const t2 = [D[1] * t1[2] - D[2] * t1[1], D[2] * t1[0] - D[0] * t1[2], D[0] * t1[1] - D[1] * t1[0]];
+  let sum = 0;
+  const nr = 24, np = 48;
+  for (let i = 0; i < nr; i++) {
+    const th = (i + 0.5) * rad / nr, st = Math.sin(th), ct = Math.cos(th);
+    for (let k = 0; k < np; k++) {
+      const ph = (k + 0.5) * 2 * Math.PI / np, cp = Math.cos(ph) * st, sp = Math.sin(ph) * st;
+      sum += Math.max(0, dot(N, [0, 1, 2].map((q) => D[q] * ct + t1[q] * cp + t2[q] * sp))) * st;
+    }
+  }
+  const f = sum * (rad / nr) * (2 * Math.PI / np) / Math.PI;
+  return sun.radiance.map((l) => l * f);
+}
+
 // What a render of a mip chain shows when every texel is exact: the chain's
 // levels [{n, r}] hold Pre(texel centre, r) exactly, sampled as the GPU does
 // (seamless bilinear, linear between levels at lod). Separates a filter's
