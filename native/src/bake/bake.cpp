@@ -11,6 +11,8 @@
 #include <cstring>
 #include <exception>
 #include <limits>
+#include <memory>
+#include <thread>
 
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/bake/options.h"
@@ -418,6 +420,7 @@ struct SourceBake {
     ImageView view;           // the source as given; cleaned by sanitize()
     Image* owned;             // the same pixels when this bake may change and free them; null once freed
     const bool owned_source;  // else the caller's pixels are read in place (a numpy array)
+    bool streamed = false;    // read in bands (compute_bake_stream): never held whole
 
     BakeResult r;
     const SinkGuard guard;  // destroyed before r: what the sink reads outlives it
@@ -480,23 +483,32 @@ void SourceBake::finish_level(const LevelJob& job, Cubemap&& level, size_t sampl
     report("specular", done);
 }
 
+// Option `strict`: a source with bad texels is refused.
+void check_strict(const BakeResult& r, const BakeOptions& o) {
+    if (o.strict && r.bad_input.any())
+        throw BadInputError("source has " + std::to_string(r.bad_input.pixels) + " bad pixels (" +
+                            std::to_string(r.bad_input.nan) + " NaN, " + std::to_string(r.bad_input.inf) + " Inf, " +
+                            std::to_string(r.bad_input.negative) + " negative values)");
+}
+
+void aspect_warning(BakeResult& r, int w, int h) {
+    if (w != 2 * h)
+        r.warnings.push_back("the source is " + std::to_string(w) + " x " + std::to_string(h) +
+                             ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
+}
+
 // The scan, the SH9 projection and the hot split's row sums in one pass over
 // the source; the last two are of the source as it is, used unless cleaning
 // or the overflow guard changes it (sanitize()).
 void scan(SourceBake& b) {
     BakeResult& r = b.r;
     option_warnings(r, b.o);
-    if (b.view.width != 2 * b.view.height)
-        r.warnings.push_back("the source is " + std::to_string(b.view.width) + " x " + std::to_string(b.view.height) +
-                             ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
+    aspect_warning(r, b.view.width, b.view.height);
     b.report("reading source", 0.0);
     b.summary = summarize_source(b.view);
     b.scanned = b.view;
     r.bad_input = b.summary.scan.bad;
-    if (b.o.strict && r.bad_input.any())
-        throw BadInputError("source has " + std::to_string(r.bad_input.pixels) + " bad pixels (" +
-                            std::to_string(r.bad_input.nan) + " NaN, " + std::to_string(r.bad_input.inf) + " Inf, " +
-                            std::to_string(r.bad_input.negative) + " negative values)");
+    check_strict(r, b.o);
     // Radiance far beyond what any real HDRI holds (finite floats up to
     // 3.4e38) would overflow the float sums: bring the maximum below 2^64 by
     // an exact power of two and scale the outputs back at the end.
@@ -820,9 +832,180 @@ void finish_and_check(SourceBake& b) {
         r.warnings.push_back(std::to_string(b.saturated) +
                              " output values exceeded the float range and were saturated at 3.4e38");
     warn_if_black(r);
-    check_outputs(r, !b.owned_source);
+    check_outputs(r, !b.owned_source && !b.streamed);
     if (b.sink) b.sink->wait();
     b.report("done", 1.0);
+}
+
+// Rows decoded into one of two band buffers while the other's rows are
+// reduced (a reader thread, unless one thread was asked for). Before a
+// buffer is reused, its band's last `keep` rows go to a tail: a bin row
+// reads up to max_reach() = keep + 1 rows, across a band's start. Bands
+// are at least keep + 1 rows high.
+class BandRing {
+public:
+    BandRing(BandSource& src, int band, int keep, bool overlap)
+        : src_(src), w_(src.width()), h_(src.height()), band_(band), keep_(keep), overlap_(overlap),
+          row_(size_t(w_) * 3), table_(size_t(h_), nullptr) {
+        if (band_ <= keep_) throw std::logic_error("BandRing: bands must be higher than the rows kept");
+        for (auto& b : buf_) b.resize(size_t(std::min(band_, h_)) * row_);
+        tail_.resize(size_t(keep_) * row_);
+    }
+    BandRing(const BandRing&) = delete;
+    BandRing& operator=(const BandRing&) = delete;
+    ~BandRing() { join(); }
+
+    // The next band: its rows (to be cleaned in place), first row and count; false after the last.
+    bool next(std::vector<float*>& rows, int& y0, int& n) {
+        if (next_y_ >= h_) return false;
+        const int cur = k_ & 1;
+        if (k_ == 0) read_into(cur, 0);
+        join();  // band k was being read into buf_[cur]
+        if (error_) std::rethrow_exception(error_);
+        y0 = next_y_;
+        n = std::min(band_, h_ - y0);
+        std::fill(table_.begin() + have0_, table_.begin() + (have1_ + 1), nullptr);
+        have0_ = k_ == 0 ? 0 : y0 - keep_;
+        for (int y = have0_; y < y0; ++y) table_[size_t(y)] = tail_.data() + size_t(y - have0_) * row_;
+        rows.resize(size_t(n));
+        for (int k = 0; k < n; ++k) {
+            rows[size_t(k)] = buf_[cur].data() + size_t(k) * row_;
+            table_[size_t(y0 + k)] = rows[size_t(k)];
+        }
+        have1_ = y0 + n - 1;
+        next_y_ = y0 + n;
+        ++k_;
+        if (next_y_ < h_ && overlap_) {
+            const int other = k_ & 1, start = next_y_;
+            reader_ = std::thread([this, other, start] {
+                try {
+                    read_into(other, start);
+                } catch (...) {
+                    error_ = std::current_exception();
+                }
+            });
+        }
+        return true;
+    }
+    // After a band is reduced: its last rows to the tail, and (without the
+    // reader thread) the next band read.
+    void done() {
+        if (next_y_ >= h_) return;
+        const float* last = buf_[(k_ - 1) & 1].data() + size_t(band_ - keep_) * row_;  // a band before the last is whole
+        std::memcpy(tail_.data(), last, size_t(keep_) * row_ * sizeof(float));
+        if (!overlap_) read_into(k_ & 1, next_y_);
+    }
+    // Rows have0() .. have1() through the row table (null elsewhere).
+    ImageView view() const {
+        ImageView v(nullptr, w_, h_);
+        v.rows = table_.data();
+        return v;
+    }
+    int have0() const { return have0_; }
+    int have1() const { return have1_; }
+
+private:
+    void read_into(int which, int y0) { src_.read(y0, std::min(band_, h_ - y0), buf_[which].data()); }
+    void join() {
+        if (reader_.joinable()) reader_.join();
+    }
+
+    BandSource& src_;
+    const int w_, h_, band_, keep_;
+    const bool overlap_;
+    const size_t row_;
+    std::vector<float> buf_[2], tail_;
+    std::vector<const float*> table_;
+    std::thread reader_;
+    std::exception_ptr error_;
+    int k_ = 0, next_y_ = 0, have0_ = 0, have1_ = -1;
+};
+
+// scan() .. bin_tree() for a source read in bands (compute_bake_stream):
+// each band cleaned and summarized (SummaryStream), its hot texels kept
+// (HotStream), the finest bins' rows reduced (BinRowStream) and mip 0's
+// lookups made (MirrorStream), then what needs the whole source's sums (the
+// strict check, the mean, the hot threshold, the tree). False when the
+// overflow guard is needed (nothing handed to the sink yet).
+bool stream_front(SourceBake& b, BandSource& src) {
+    BakeResult& r = b.r;
+    const int w = src.width(), h = src.height();
+    b.streamed = true;
+    option_warnings(r, b.o);
+    aspect_warning(r, w, h);
+    b.report("reading source", 0.0);
+    plan_levels(b);
+    SummaryStream sums(w, h);
+    std::unique_ptr<HotStream> hots;
+    if (b.want_irr) hots = std::make_unique<HotStream>(w, h, b.o.max_hot);
+    BinRowStream bins(w, h, b.finest_bins);
+    std::vector<Cubemap> mirrors;
+    std::vector<std::unique_ptr<MirrorStream>> mirror_streams;
+    size_t mirror_jobs = 0;
+    for (const LevelJob& job : b.jobs) mirror_jobs += job.roughness == 0.0;
+    mirrors.reserve(mirror_jobs);  // the streams hold references
+    for (const LevelJob& job : b.jobs)
+        if (job.roughness == 0.0) {
+            mirrors.emplace_back(job.face_size, Uninitialized{});  // every texel written
+            mirror_streams.push_back(std::make_unique<MirrorStream>(mirrors.back(), w, h));
+        }
+    const int keep = std::max(1, bins.max_reach() - 1);
+    const int band = std::max({src.preferred_band(), bins.max_reach(), 16});
+    {
+        BandRing ring(src, band, keep, b.o.threads != 1);
+        std::vector<float*> rows;
+        int y0 = 0, n = 0;
+        while (ring.next(rows, y0, n)) {
+            sums.add_rows(rows.data(), y0, n);
+            if (hots) hots->add_rows(rows.data(), y0, n);
+            const ImageView v = ring.view();
+            bins.add_rows(v, ring.have0(), ring.have1());
+            for (auto& m : mirror_streams) m->add_rows(v, ring.have0(), ring.have1());
+            ring.done();
+            b.report("reading source", 0.05 * double(y0 + n) / h);
+        }
+    }
+    if (bins.pending() != 0) throw std::logic_error("streamed bake: bin rows left unreduced");
+    for (auto& m : mirror_streams)
+        if (m->pending() != 0) throw std::logic_error("streamed bake: mip 0 texels left unread");
+    b.summary = sums.finish();
+    r.bad_input = b.summary.scan.bad;
+    check_strict(r, b.o);
+    b.scale_exp = overflow_guard_exponent(b.summary.scan.max_value);
+    if (b.scale_exp != 0) return false;
+    b.clock.done("read");
+    // sh9(): the summary describes the cleaned source, the integrand.
+    b.source = b.integrand = ImageView(nullptr, w, h);
+    b.summary_holds = true;
+    r.integration_width = w;
+    r.integration_height = h;
+    r.sh9 = b.summary.sh9;
+    for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
+    // mirror_levels()
+    size_t m = 0;
+    for (const LevelJob& job : b.jobs) {
+        if (job.roughness != 0.0) continue;
+        b.report("specular", b.done);
+        b.finish_level(job, std::move(mirrors[m++]), 1, "bilinear source lookup");
+    }
+    // hot_split()
+    if (b.want_irr) {
+        b.split = hots->finish(b.o.hot_threshold, b.summary.hot);
+        r.hot_texels = b.split.hot.size();
+        r.hot_threshold = b.split.threshold;
+        r.hot_power_fraction = b.split.hot_power_fraction;
+    }
+    b.advance(0.05);
+    // bin_tree(): whole_source_reason() saw to a tree that serves the irradiance too.
+    b.irr_from_tree = b.want_irr;
+    b.report("specular", b.done);
+    r.specular_base_face = b.finest_bins;
+    BinTreeOptions tree_options;
+    tree_options.channel_mean = r.mean_radiance.data();
+    b.tree = bins.finish(r.mean_radiance.data(), b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins,
+                         tree_options);
+    b.clock.done("bin_tree");
+    return true;
 }
 
 // The bake of `view`. `owned`, when given, holds the same pixels and may be
@@ -853,6 +1036,37 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
 }
 
 }  // namespace
+
+std::string whole_source_reason(const BakeOptions& o) {
+    if (o.rotation != 0.0) return "the world is turned (rotation)";
+    if (o.sun == SunMode::Split) return "the sun is split from the sky";
+    if (o.specular_method != SpecularMethod::Hierarchical) return "filtered importance sampling";
+    if (o.extra.keep_source) return "an export keeps the source";
+    const int finest = finest_bin_width(o);
+    if (finest > 512) return "finest bins of " + std::to_string(finest) + " across (over 512)";
+    if (!(smallest_positive_roughness(level_jobs(o)) > 0.0)) return "no specular level at roughness above 0";
+    if ((o.irradiance || o.extra.irradiance) && o.irradiance_bins > finest / 4)
+        return "irradiance bins finer than the specular bins serve";
+    return "";
+}
+
+std::optional<BakeResult> compute_bake_stream(BandSource& source, const BakeOptions& o, const ProgressFn& progress,
+                                              LutCache* lut_cache, OutputSink* sink) {
+    o.validate();
+    const std::string why = whole_source_reason(o);
+    if (!why.empty()) throw std::invalid_argument("compute_bake_stream: the whole source is needed: " + why);
+    if (source.width() < 1 || source.height() < 1) throw std::invalid_argument("source image is empty");
+    return in_arena(o.threads, [&]() -> std::optional<BakeResult> {
+        SourceBake b(ImageView(nullptr, source.width(), source.height()), nullptr, o, progress, lut_cache, sink);
+        if (!stream_front(b, source)) return std::nullopt;
+        start_irradiance(b);
+        specular_levels(b);
+        join_irradiance(b);
+        join_luts(b);
+        finish_and_check(b);
+        return std::move(b.r);
+    });
+}
 
 BakeResult compute_bake(Image source, const BakeOptions& o, const ProgressFn& progress, LutCache* lut_cache,
                         OutputSink* sink) {

@@ -11,9 +11,56 @@
 #include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/output_dir.h"
+#include "iblbake/io/row_reader.h"
 #include "iblbake/pipeline/write.h"
 
 namespace iblbake {
+
+namespace {
+
+// An EXR file as the streamed bake's bands.
+class ExrRows final : public BandSource {
+public:
+    explicit ExrRows(const std::string& path) : reader_(path) {}
+    int width() const override { return reader_.width(); }
+    int height() const override { return reader_.height(); }
+    int preferred_band() const override { return reader_.preferred_band(); }
+    void read(int y0, int rows, float* out) override { reader_.read(y0, rows, out); }
+    const std::vector<std::string>& warnings() const { return reader_.warnings(); }
+
+private:
+    io::ExrRowReader reader_;
+};
+
+// Runs `work` on a task beside the caller's `main` (or after it, with one
+// thread), waits, and rethrows the first failure (main's first).
+template <typename Side, typename Main>
+void beside(bool one_thread, Side&& work, Main&& main) {
+    if (one_thread) {
+        main();
+        work();
+        return;
+    }
+    tbb::task_group side;
+    std::exception_ptr side_error;
+    side.run([&] {
+        try {
+            work();
+        } catch (...) {
+            side_error = std::current_exception();
+        }
+    });
+    try {
+        main();
+    } catch (...) {
+        side.wait();
+        throw;
+    }
+    side.wait();
+    if (side_error) std::rethrow_exception(side_error);
+}
+
+}  // namespace
 
 nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakePlan& plan,
                          const ProgressFn& progress, LutCache* lut_cache) {
@@ -32,29 +79,29 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
         // Every SPEC file is written as soon as its output is made, while the bake goes on.
         writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
     };
-    io::LoadedImage loaded;
     std::error_code ec;
-    if (plan.bake.threads == 1 || !std::filesystem::is_regular_file(source_path, ec)) {  // the reader refuses the rest
+    const bool one_thread = plan.bake.threads == 1 || !std::filesystem::is_regular_file(source_path, ec);
+    // An EXR file whose bake needs no whole source is decoded in bands and
+    // reduced as it goes (issue 28): its memory does not grow with the file.
+    if (std::filesystem::is_regular_file(source_path, ec) && whole_source_reason(plan.bake).empty() &&
+        io::image_format(source_path) == "openexr") {
+        ExrRows rows(source_path);  // refuses what read_image refuses, before any pixel
+        src.width = rows.width();
+        src.height = rows.height();
+        BakeOptions o = plan.bake;
+        o.warnings.insert(o.warnings.begin(), rows.warnings().begin(), rows.warnings().end());
+        writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
+        std::optional<BakeResult> r;
+        beside(plan.bake.threads == 1, [&] { src.sha256 = io::sha256_file(source_path); },
+               [&] { r = compute_bake_stream(rows, o, progress, lut_cache, writer.get()); });
+        if (r) return writer->finish(*r, src);
+        // Values of 2^64 and more: the overflow guard scales the whole source (nothing written yet).
+    }
+    io::LoadedImage loaded;
+    if (writer) {
         loaded = io::read_image(source_path);
-        side_work();
     } else {
-        tbb::task_group side;
-        std::exception_ptr side_error;
-        side.run([&] {
-            try {
-                side_work();
-            } catch (...) {
-                side_error = std::current_exception();
-            }
-        });
-        try {
-            loaded = io::read_image(source_path);
-        } catch (...) {
-            side.wait();
-            throw;
-        }
-        side.wait();
-        if (side_error) std::rethrow_exception(side_error);
+        beside(one_thread, side_work, [&] { loaded = io::read_image(source_path); });
     }
     src.width = loaded.image.width;
     src.height = loaded.image.height;

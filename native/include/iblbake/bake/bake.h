@@ -178,6 +178,36 @@ BakeResult compute_bake(Image source, const BakeOptions& options, const Progress
 BakeResult compute_bake_view(ImageView source, const BakeOptions& options, const ProgressFn& progress = {},
                              LutCache* lut_cache = nullptr, OutputSink* sink = nullptr);
 
+// A source handed over a band of rows at a time (a file decoded as the bake
+// goes; issue 28, docs/design-streaming.md): read(y0, rows, out) writes rows
+// y0 .. y0 + rows - 1 as rows x width x 3 linear RGB floats. Rows are asked
+// for once each, in order; preferred_band() is the band a read decodes best.
+class BandSource {
+public:
+    virtual ~BandSource() = default;
+    virtual int width() const = 0;
+    virtual int height() const = 0;
+    virtual int preferred_band() const = 0;
+    virtual void read(int y0, int rows, float* out) = 0;
+};
+
+// Why a bake with these options needs the whole source in memory (a turn,
+// the sun split, FIS, the source preset, finest bins over 512 across, an
+// irradiance finer than the bin tree keeps, no level at r > 0), or "" when
+// compute_bake_stream() bakes it from bands.
+std::string whole_source_reason(const BakeOptions& options);
+
+// The bake of a source read in bands, never held whole: the same outputs as
+// compute_bake() of the image the rows make, to the bit (each stage's
+// per-row arithmetic is today's, on views of the band). Its memory is the
+// bands' and the outputs', whatever the source's size. Requires
+// whole_source_reason(options) to be "". Returns nothing (having handed the
+// sink nothing) when the source holds values of 2^64 or more, which the
+// overflow guard must scale first: bake the whole image then.
+std::optional<BakeResult> compute_bake_stream(BandSource& source, const BakeOptions& options,
+                                              const ProgressFn& progress = {}, LutCache* lut_cache = nullptr,
+                                              OutputSink* sink = nullptr);
+
 // The bake of a constant world of radiance `rgb` (a plain-colour world), in
 // closed form: Irr = Pre = rgb everywhere, SH9 = rgb * 2 sqrt(pi) in L_00
 // alone. The LUT is made (or read from the cache) as in compute_bake.
