@@ -962,9 +962,10 @@ bool stream_front(SourceBake& b, BandSource& src) {
             bins.add_rows(v, ring.have0(), ring.have1());
             for (auto& m : mirror_streams) m->add_rows(v, ring.have0(), ring.have1());
             ring.done();
-            b.report("reading source", 0.05 * double(y0 + n) / h);
+            b.report("reading source", b.done + 0.05 / b.w_total * double(y0 + n) / h);
         }
     }
+    b.advance(0.05);  // hot_split()'s share, done here
     if (bins.pending() != 0) throw std::logic_error("streamed bake: bin rows left unreduced");
     for (auto& m : mirror_streams)
         if (m->pending() != 0) throw std::logic_error("streamed bake: mip 0 texels left unread");
@@ -995,7 +996,6 @@ bool stream_front(SourceBake& b, BandSource& src) {
         r.hot_threshold = b.split.threshold;
         r.hot_power_fraction = b.split.hot_power_fraction;
     }
-    b.advance(0.05);
     // bin_tree(): whole_source_reason() saw to a tree that serves the irradiance too.
     b.irr_from_tree = b.want_irr;
     b.report("specular", b.done);

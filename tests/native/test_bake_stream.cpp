@@ -1,0 +1,226 @@
+// The streamed bake (issue 28, docs/design-streaming.md step 6):
+// compute_bake_stream over bands of rows gives compute_bake's result to the
+// bit, whatever the band height, the thread count or the source's oddities;
+// it refuses the options that need the whole source, hands back nothing for
+// sources the overflow guard must scale, and bake_file streams EXR files.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "iblbake/bake/bake.h"
+#include "iblbake/io/image_io.h"
+#include "iblbake/pipeline/bake_file.h"
+#include "iblbake/pipeline/plan.h"
+#include "iblbake/pipeline/write.h"
+#include "reference.h"
+
+using namespace iblbake;
+namespace fs = std::filesystem;
+
+namespace {
+
+// An image in memory as bands; counts the reads and checks they come in order, once each.
+class ImageBands final : public BandSource {
+public:
+    ImageBands(const Image& img, int band) : img_(img), band_(band) {}
+    int width() const override { return img_.width; }
+    int height() const override { return img_.height; }
+    int preferred_band() const override { return band_; }
+    void read(int y0, int rows, float* out) override {
+        EXPECT_EQ(y0, next_) << "rows asked for out of order";
+        EXPECT_TRUE(rows >= 1 && y0 + rows <= img_.height);
+        next_ = y0 + rows;
+        ++reads;
+        std::memcpy(out, img_.at(0, y0), size_t(rows) * img_.width * 3 * sizeof(float));
+    }
+    int reads = 0;
+
+private:
+    const Image& img_;
+    int band_, next_ = 0;
+};
+
+BakeOptions small_options() {
+    BakeOptions o;
+    o.face_size = 32;
+    o.irradiance_size = 8;
+    o.lut_size = 16;
+    o.irradiance_bins = 32;  // the tree's (finest 128 at face 32) serve: the default 128 would need the whole source
+    return o;
+}
+
+bool same(const FloatBuffer& a, const FloatBuffer& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+// Every output and diagnostic, to the bit (not the timings).
+void expect_same(const BakeResult& a, const BakeResult& b, const std::string& what) {
+    ASSERT_EQ(a.specular.size(), b.specular.size()) << what;
+    for (size_t k = 0; k < a.specular.size(); ++k) EXPECT_TRUE(same(a.specular[k].pixels, b.specular[k].pixels)) << what << " level " << k;
+    ASSERT_EQ(a.irradiance.has_value(), b.irradiance.has_value()) << what;
+    if (a.irradiance) EXPECT_TRUE(same(a.irradiance->pixels, b.irradiance->pixels)) << what;
+    ASSERT_EQ(a.lut.has_value(), b.lut.has_value()) << what;
+    if (a.lut) EXPECT_TRUE(same(a.lut->pixels, b.lut->pixels)) << what;
+    EXPECT_EQ(0, std::memcmp(&a.sh9, &b.sh9, sizeof(a.sh9))) << what;
+    EXPECT_EQ(a.mean_radiance, b.mean_radiance) << what;
+    EXPECT_EQ(a.bad_input.pixels, b.bad_input.pixels) << what;
+    EXPECT_EQ(a.bad_input.nan, b.bad_input.nan) << what;
+    EXPECT_EQ(a.hot_texels, b.hot_texels) << what;
+    EXPECT_EQ(a.hot_threshold, b.hot_threshold) << what;
+    EXPECT_EQ(a.hot_power_fraction, b.hot_power_fraction) << what;
+    EXPECT_EQ(a.specular_base_face, b.specular_base_face) << what;
+    EXPECT_EQ(a.samples_per_texel, b.samples_per_texel) << what;
+    EXPECT_EQ(a.specular_methods, b.specular_methods) << what;
+    EXPECT_EQ(a.specular_levels, b.specular_levels) << what;
+    EXPECT_EQ(a.integration_width, b.integration_width) << what;
+    EXPECT_EQ(a.warnings, b.warnings) << what;
+    ASSERT_EQ(a.extra_specular.size(), b.extra_specular.size()) << what;
+    for (size_t k = 0; k < a.extra_specular.size(); ++k) {
+        EXPECT_EQ(a.extra_specular[k].face_size, b.extra_specular[k].face_size) << what;
+        EXPECT_TRUE(same(a.extra_specular[k].cube.pixels, b.extra_specular[k].cube.pixels)) << what << " extra " << k;
+    }
+    ASSERT_EQ(a.extra_irradiance.has_value(), b.extra_irradiance.has_value()) << what;
+    if (a.extra_irradiance) EXPECT_TRUE(same(a.extra_irradiance->pixels, b.extra_irradiance->pixels)) << what;
+}
+
+std::vector<Image> sources() {
+    std::vector<Image> s;
+    s.push_back(ref::sun_source(256, 128, {0.3, 0.5, 0.4}, 2.0, 2e4f, 0.5f));
+    s.push_back(ref::red_sun_source(200, 100, {-0.6, 0.2, 0.1}, 1.0, 1e6f, 0.3f));
+    s.push_back(ref::random_smooth_source(300, 150, 7));
+    Image bad = ref::random_smooth_source(128, 64, 3);  // NaN, Inf and negative texels, cleaned as they come
+    bad.at(5, 0)[0] = std::numeric_limits<float>::quiet_NaN();
+    bad.at(70, 31)[1] = std::numeric_limits<float>::infinity();
+    bad.at(127, 63)[2] = -4.0f;
+    s.push_back(std::move(bad));
+    s.push_back(ref::constant_source(1, 1, 2.0f));
+    s.push_back(ref::constant_source(3, 2, 0.5f));
+    return s;
+}
+
+}  // namespace
+
+TEST(StreamedBake, EqualsTheWholeImageBakeToTheBit) {
+    std::vector<BakeOptions> options(4, small_options());
+    options[1].face_size = 256;  // finest bins 512, the default's
+    options[1].irradiance_bins = 128;
+    options[2].irradiance = false;
+    options[2].extra.specular = {{64, 0.0}, {64, 0.3}, {16, 0.7}};  // an engine's r = 0 level of another size
+    options[3].lut = false;
+    options[3].mip_count = 3;
+    const std::vector<Image> srcs = sources();
+    for (size_t si = 0; si < srcs.size(); ++si)
+        for (size_t oi = 0; oi < options.size(); ++oi)
+            for (int threads : {1, 2})
+                for (int band : {1, 40, 100000}) {
+                    BakeOptions o = options[oi];
+                    o.threads = threads;
+                    ASSERT_EQ(whole_source_reason(o), "");
+                    const std::string what = "source " + std::to_string(si) + " options " + std::to_string(oi) +
+                                             " threads " + std::to_string(threads) + " band " + std::to_string(band);
+                    const BakeResult whole = compute_bake(srcs[si], o);
+                    ImageBands bands(srcs[si], band);
+                    const std::optional<BakeResult> streamed = compute_bake_stream(bands, o);
+                    ASSERT_TRUE(streamed) << what;
+                    expect_same(whole, *streamed, what);
+                    EXPECT_GE(bands.reads, 1);
+                }
+}
+
+TEST(StreamedBake, StrictRefusesAfterThePassAndProgressIsMonotone) {
+    Image bad = ref::random_smooth_source(128, 64, 3);
+    bad.at(9, 40)[0] = std::numeric_limits<float>::quiet_NaN();
+    BakeOptions o = small_options();
+    o.strict = true;
+    ImageBands bands(bad, 8);
+    EXPECT_THROW(compute_bake_stream(bands, o), BadInputError);
+    o.strict = false;
+    std::vector<std::pair<std::string, double>> seen;
+    ImageBands again(bad, 8);
+    compute_bake_stream(again, o, [&](const std::string& s, double f) {
+        seen.emplace_back(s, f);
+        return true;
+    });
+    ASSERT_FALSE(seen.empty());
+    EXPECT_EQ(seen.back(), (std::pair<std::string, double>("done", 1.0)));
+    int reading = 0;
+    for (size_t k = 1; k < seen.size(); ++k) {
+        EXPECT_GE(seen[k].second, seen[k - 1].second) << seen[k].first;
+        reading += seen[k].first == "reading source";
+    }
+    EXPECT_GE(reading, 4);  // one per band (bands of 16 rows at least)
+}
+
+TEST(StreamedBake, CancelDuringThePassStopsReading) {
+    const Image src = ref::random_smooth_source(256, 128, 1);
+    ImageBands bands(src, 8);
+    int calls = 0;
+    EXPECT_THROW(compute_bake_stream(bands, small_options(), [&](const std::string& s, double) {
+                     return !(s == "reading source" && ++calls == 3);
+                 }),
+                 Cancelled);
+    EXPECT_LE(bands.reads, 5);  // the band being read beside the third, at most
+}
+
+TEST(StreamedBake, OverflowGuardAndWholeSourceOptionsFallBack) {
+    Image huge = ref::constant_source(64, 32, 1.0f);
+    huge.at(3, 3)[1] = 1e30f;
+    ImageBands bands(huge, 8);
+    EXPECT_FALSE(compute_bake_stream(bands, small_options()));  // the whole image, scaled, bakes it
+    for (int k = 0; k < 6; ++k) {
+        BakeOptions o = small_options();
+        if (k == 0) o.rotation = 30.0;
+        if (k == 1) o.sun = SunMode::Split;
+        if (k == 2) o.specular_method = SpecularMethod::Fis;
+        if (k == 3) o.extra.keep_source = true;
+        if (k == 4) o.hierarchical.eps = 0.05;  // finest bins over 512
+        if (k == 5) o.irradiance_bins = 128;    // finer than the tree's 128 / 4
+        EXPECT_NE(whole_source_reason(o), "") << k;
+        ImageBands b(huge, 8);
+        EXPECT_THROW(compute_bake_stream(b, o), std::invalid_argument) << k;
+        EXPECT_EQ(b.reads, 0);
+    }
+}
+
+// bake_file streams an EXR (the manifest's timings say "read" without
+// "sanitize") and writes the files the whole-image path writes.
+TEST(StreamedBake, BakeFileStreamsExrFiles) {
+    const fs::path dir = fs::temp_directory_path() / ("iblbake_test_stream_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    Image src = ref::sun_source(512, 256, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f);
+    src.at(100, 100)[0] = std::numeric_limits<float>::quiet_NaN();
+    io::write_exr((dir / "s.exr").string(), src, io::ExrPixel::Float);
+    WriteOptions wo;
+    wo.png = true;
+    const BakeOptions o = small_options();
+    const nlohmann::json m = bake_file((dir / "s.exr").string(), dir / "streamed", make_plan(o, wo));
+    bool has_sanitize = false;
+    for (const auto& t : m["timings"].items()) has_sanitize = has_sanitize || t.key() == "sanitize";
+    EXPECT_TRUE(m["timings"].contains("read"));
+    EXPECT_FALSE(has_sanitize) << m["timings"].dump();
+    EXPECT_EQ(m["bad_input"]["nan"], 1);
+    // The same files as the whole-image path's: compute_bake of the image the file holds, through the same writer.
+    {
+        const BakePlan plan = make_plan(o, wo);
+        BakeWriter writer(dir / "whole", plan);
+        const BakeResult r = compute_bake(io::read_image((dir / "s.exr").string()).image, plan.bake, {}, nullptr, &writer);
+        SourceInfo info;
+        info.width = src.width, info.height = src.height;
+        writer.finish(r, info);
+    }
+    for (const auto& e : fs::directory_iterator(dir / "streamed")) {
+        if (e.path().filename() == "manifest.json") continue;
+        std::ifstream a(e.path(), std::ios::binary), b(dir / "whole" / e.path().filename(), std::ios::binary);
+        const std::string da((std::istreambuf_iterator<char>(a)), {}), db((std::istreambuf_iterator<char>(b)), {});
+        EXPECT_EQ(da, db) << e.path().filename();
+    }
+    fs::remove_all(dir);
+}
