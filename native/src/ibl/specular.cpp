@@ -174,7 +174,6 @@ MirrorStream::MirrorStream(Cubemap& dst, int src_w, int src_h)
         coords(frame, 0.0, n, w_, h_, side_fx_.data() + size_t(s) * n, scratch.data());
     }
     side_fy_.resize(size_t(n) * n);
-    side_done_.assign(size_t(n) * n, 0);
     polar_fx_.resize(size_t(2) * n * n);
     polar_fy_.resize(size_t(2) * n * n);
     parallel_for(0, 3 * n, [&](int task) {
@@ -190,65 +189,60 @@ MirrorStream::MirrorStream(Cubemap& dst, int src_w, int src_h)
         const size_t at = (size_t(f - 2) * n + j) * n;
         coords(frame, 2.0 * (j + 0.5) / n - 1.0, n, w_, h_, polar_fx_.data() + at, polar_fy_.data() + at);
     });
-    polar_order_.resize(polar_fy_.size());
-    std::vector<int> lo(polar_fy_.size());
-    for (size_t k = 0; k < lo.size(); ++k) {
-        int hi;
-        rows_of(polar_fy_[k], h_, lo[k], hi);
-        polar_order_[k] = uint32_t(k);
-    }
-    std::stable_sort(polar_order_.begin(), polar_order_.end(), [&](uint32_t a, uint32_t b) { return lo[a] < lo[b]; });
-    polar_lo_.resize(lo.size());
-    for (size_t k = 0; k < lo.size(); ++k) polar_lo_[k] = lo[polar_order_[k]];
-    polar_done_.assign(lo.size(), 0);
+    // Counting sorts by last row (stable: the order within a row is the texels').
+    auto bucket = [h = h_](const std::vector<double>& fy, std::vector<uint32_t>& order, std::vector<uint32_t>& start) {
+        start.assign(size_t(h) + 1, 0);
+        std::vector<int> hi_of(fy.size());
+        for (size_t k = 0; k < fy.size(); ++k) {
+            int lo, hi;
+            rows_of(fy[k], h, lo, hi);
+            hi_of[k] = hi;
+            ++start[size_t(hi) + 1];
+        }
+        for (int y = 0; y < h; ++y) start[size_t(y) + 1] += start[size_t(y)];
+        std::vector<uint32_t> next(start.begin(), start.end() - 1);
+        order.resize(fy.size());
+        for (size_t k = 0; k < fy.size(); ++k) order[next[size_t(hi_of[k])]++] = uint32_t(k);
+    };
+    bucket(side_fy_, side_order_, side_start_);
+    bucket(polar_fy_, polar_order_, polar_start_);
     pending_ = size_t(6) * n * n;
 }
 
 void MirrorStream::add_rows(ImageView img, int y0, int y1) {
     const int n = n_, w = w_, h = h_;
     auto at = [&img](int x, int y) { return img.at(x, y); };
-    std::atomic<size_t> done{0};
-    // Side faces, column by column: a texel is ready when both its rows are
-    // in the band (its rows grow with j, up to rounding: the whole column is
-    // tested, cheaply, against the band).
-    parallel_for(0, n, [&](int i) {
-        size_t here = 0;
-        for (int j = 0; j < n; ++j) {
-            const size_t k = size_t(j) * n + i;
-            if (side_done_[k]) continue;
-            int lo, hi;
-            rows_of(side_fy_[k], h, lo, hi);
-            if (lo < y0 || hi > y1) continue;
-            for (int s = 0; s < 4; ++s)
-                bilinear_row(at, w, h, side_fx_.data() + size_t(s) * n + i, &side_fy_[k], 1,
-                             dst_.at(kSideFaces[s], i, j));
-            side_done_[k] = 1;
-            here += 4;
+    if (y0 > last_row_ + 1) throw std::logic_error("MirrorStream: bands must come in order and overlap");
+    y1 = std::min(y1, h - 1);
+    if (y1 <= last_row_) return;
+    // The texels whose last row is new in this band (their first row, one
+    // less or the same, is in it too).
+    const uint32_t s0 = side_start_[size_t(last_row_ + 1)], s1 = side_start_[size_t(y1) + 1];
+    const uint32_t p0 = polar_start_[size_t(last_row_ + 1)], p1 = polar_start_[size_t(y1) + 1];
+    const int side_chunks = int(std::min<uint32_t>(256, s1 - s0)), polar_chunks = int(std::min<uint32_t>(256, p1 - p0));
+    parallel_for(0, side_chunks + polar_chunks, [&](int c) {
+        const bool side = c < side_chunks;
+        const int chunks = side ? side_chunks : polar_chunks, cc = side ? c : c - side_chunks;
+        const uint32_t first = side ? s0 : p0, last = side ? s1 : p1;
+        const uint32_t a = first + uint32_t(uint64_t(last - first) * uint64_t(cc) / uint64_t(chunks));
+        const uint32_t b = first + uint32_t(uint64_t(last - first) * uint64_t(cc + 1) / uint64_t(chunks));
+        for (uint32_t q = a; q < b; ++q) {
+            if (side) {
+                const uint32_t k = side_order_[q];
+                const int j = int(k / uint32_t(n)), i = int(k % uint32_t(n));
+                for (int s = 0; s < 4; ++s)
+                    bilinear_row(at, w, h, side_fx_.data() + size_t(s) * n + i, &side_fy_[k], 1,
+                                 dst_.at(kSideFaces[s], i, j));
+            } else {
+                const uint32_t k = polar_order_[q];
+                const int f = 2 + int(k / (uint32_t(n) * uint32_t(n))), j = int(k / uint32_t(n) % uint32_t(n)),
+                          i = int(k % uint32_t(n));
+                bilinear_row(at, w, h, &polar_fx_[k], &polar_fy_[k], 1, dst_.at(f, i, j));
+            }
         }
-        done += here;
     });
-    // Top and bottom faces: the texels whose first row is in the band.
-    const size_t first = size_t(std::lower_bound(polar_lo_.begin(), polar_lo_.end(), y0) - polar_lo_.begin());
-    const size_t last = size_t(std::upper_bound(polar_lo_.begin(), polar_lo_.end(), y1) - polar_lo_.begin());
-    const int chunks = int(std::min<size_t>(256, last - first));
-    parallel_for(0, chunks, [&](int c) {
-        const size_t a = first + (last - first) * size_t(c) / size_t(chunks);
-        const size_t b = first + (last - first) * size_t(c + 1) / size_t(chunks);
-        size_t here = 0;
-        for (size_t q = a; q < b; ++q) {
-            if (polar_done_[q]) continue;
-            const uint32_t k = polar_order_[q];
-            int lo, hi;
-            rows_of(polar_fy_[k], h, lo, hi);
-            if (hi > y1) continue;
-            const int f = 2 + int(k / (size_t(n) * n)), j = int(k / n % n), i = int(k % n);
-            bilinear_row(at, w, h, &polar_fx_[k], &polar_fy_[k], 1, dst_.at(f, i, j));
-            polar_done_[q] = 1;
-            ++here;
-        }
-        done += here;
-    });
-    pending_ -= done.load();
+    pending_ -= size_t(s1 - s0) * 4 + size_t(p1 - p0);
+    last_row_ = y1;
 }
 
 namespace {

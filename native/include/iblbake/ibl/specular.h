@@ -38,14 +38,14 @@ std::vector<KernelSample> make_kernel_samples(double roughness, const SpecularQu
 void specular_mirror(Cubemap& dst, ImageView latlong);
 
 // specular_mirror as a source is decoded in bands (issue 28,
-// docs/design-streaming.md): add_rows() looks up every texel of `dst` both
-// of whose source rows lie in y0..y1 of `img` (a view whose rows y0..y1 are
-// readable), once. Every texel is written once pending() is 0, equal to the
-// bit to specular_mirror(dst, whole image). The side faces' texels are
-// found per column (their rows grow with j), the top and bottom faces' by a
-// list sorted by source row. Holds the lookups' coordinates: n^2 doubles
-// for the side faces and 4 n^2 for the others (40 MB at n = 1024). Bands
-// that overlap by one row serve every texel.
+// docs/design-streaming.md): add_rows() looks up every texel of `dst` whose
+// last source row (of the two a bilinear lookup reads) is in y0..y1 and was
+// not in an earlier band, so bands come in order and overlap by at least
+// one row. Every texel is written once pending() is 0, equal to the bit to
+// specular_mirror(dst, whole image). Texels are bucketed by that row up
+// front (side faces: n^2 places shared by the four; top and bottom: 2 n^2),
+// so a band touches only its own texels. Holds the lookups' coordinates and
+// the buckets: about 52 n^2 bytes (52 MB at n = 1024).
 class MirrorStream {
 public:
     MirrorStream(Cubemap& dst, int src_w, int src_h);
@@ -57,11 +57,10 @@ private:
     int n_, w_, h_;
     std::vector<double> side_fx_;        // 4 faces x n columns
     std::vector<double> side_fy_;        // n rows x n columns (every side face's)
-    std::vector<char> side_done_;        // n x n
     std::vector<double> polar_fx_, polar_fy_;  // 2 faces x n x n
-    std::vector<uint32_t> polar_order_;  // polar texels by first source row
-    std::vector<int> polar_lo_;          // their first source rows, in that order
-    std::vector<char> polar_done_;
+    // Texels by last source row: bucket y holds order[start[y] .. start[y + 1]).
+    std::vector<uint32_t> side_order_, side_start_, polar_order_, polar_start_;
+    int last_row_ = -1;  // rows up to here were served
     size_t pending_ = 0;
 };
 
