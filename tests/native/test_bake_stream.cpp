@@ -108,30 +108,35 @@ std::vector<Image> sources() {
 }  // namespace
 
 TEST(StreamedBake, EqualsTheWholeImageBakeToTheBit) {
-    std::vector<BakeOptions> options(4, small_options());
+    std::vector<BakeOptions> options(7, small_options());
     options[1].face_size = 256;  // finest bins 512, the default's
     options[1].irradiance_bins = 128;
     options[2].irradiance = false;
     options[2].extra.specular = {{64, 0.0}, {64, 0.3}, {16, 0.7}};  // an engine's r = 0 level of another size
     options[3].lut = false;
     options[3].mip_count = 3;
+    options[4].mip_count = 1;  // mip 0 alone: no tree, the irradiance's own bins
+    options[5].irradiance_bins = 128;  // finer than the tree's 128 / 4: its own bins
+    options[6].hierarchical.eps = 0.1;  // finest bins 1024
     const std::vector<Image> srcs = sources();
     for (size_t si = 0; si < srcs.size(); ++si)
-        for (size_t oi = 0; oi < options.size(); ++oi)
+        for (size_t oi = 0; oi < options.size(); ++oi) {
+            const BakeResult whole = compute_bake(srcs[si], options[oi]);  // the same bits with any thread count
             for (int threads : {1, 2})
                 for (int band : {1, 40, 100000}) {
+                    if (threads == 1 && band != 40) continue;  // one thread: no reader thread, one band height
                     BakeOptions o = options[oi];
                     o.threads = threads;
                     ASSERT_EQ(whole_source_reason(o), "");
                     const std::string what = "source " + std::to_string(si) + " options " + std::to_string(oi) +
                                              " threads " + std::to_string(threads) + " band " + std::to_string(band);
-                    const BakeResult whole = compute_bake(srcs[si], o);
                     ImageBands bands(srcs[si], band);
                     const std::optional<BakeResult> streamed = compute_bake_stream(bands, o);
                     ASSERT_TRUE(streamed) << what;
                     expect_same(whole, *streamed, what);
                     EXPECT_GE(bands.reads, 1);
                 }
+        }
 }
 
 TEST(StreamedBake, StrictRefusesAfterThePassAndProgressIsMonotone) {
@@ -174,14 +179,12 @@ TEST(StreamedBake, OverflowGuardAndWholeSourceOptionsFallBack) {
     huge.at(3, 3)[1] = 1e30f;
     ImageBands bands(huge, 8);
     EXPECT_FALSE(compute_bake_stream(bands, small_options()));  // the whole image, scaled, bakes it
-    for (int k = 0; k < 6; ++k) {
+    for (int k = 0; k < 4; ++k) {
         BakeOptions o = small_options();
         if (k == 0) o.rotation = 30.0;
         if (k == 1) o.sun = SunMode::Split;
         if (k == 2) o.specular_method = SpecularMethod::Fis;
         if (k == 3) o.extra.keep_source = true;
-        if (k == 4) o.hierarchical.eps = 0.05;  // finest bins over 512
-        if (k == 5) o.irradiance_bins = 128;    // finer than the tree's 128 / 4
         EXPECT_NE(whole_source_reason(o), "") << k;
         ImageBands b(huge, 8);
         EXPECT_THROW(compute_bake_stream(b, o), std::invalid_argument) << k;
@@ -191,11 +194,24 @@ TEST(StreamedBake, OverflowGuardAndWholeSourceOptionsFallBack) {
 
 // bake_file streams an EXR (the manifest's timings say "read" without
 // "sanitize") and writes the files the whole-image path writes.
+// What a streamed bake holds beyond bands and outputs: level 0 of the tree
+// (finest 512 at face 256: 512 x 256 bins of 144 bytes), more with finer
+// bins or the irradiance's own.
+TEST(StreamedBake, StateBytes) {
+    BakeOptions o;
+    const double tree = 512.0 * 256 * sizeof(Bin), mirror = 52.0 * 256 * 256;
+    EXPECT_EQ(stream_state_bytes(o), tree + mirror);
+    o.face_size = 64;  // finest 256: the irradiance's 128 x 64 bins of its own
+    EXPECT_EQ(stream_state_bytes(o), (256.0 * 128 + 128.0 * 64) * sizeof(Bin) + 52.0 * 64 * 64);
+    EXPECT_LT(stream_state_bytes(BakeOptions()), 12.0 * 2048 * 1024);  // a 2K source streams
+    EXPECT_GT(stream_state_bytes(BakeOptions()), 12.0 * 1024 * 512);   // a 1K source is read whole
+}
+
 TEST(StreamedBake, BakeFileStreamsExrFiles) {
     const fs::path dir = fs::temp_directory_path() / ("iblbake_test_stream_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
-    Image src = ref::sun_source(512, 256, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f);
+    Image src = ref::sun_source(1024, 512, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f);
     src.at(100, 100)[0] = std::numeric_limits<float>::quiet_NaN();
     io::write_exr((dir / "s.exr").string(), src, io::ExrPixel::Float);
     WriteOptions wo;

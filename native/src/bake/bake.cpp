@@ -686,7 +686,7 @@ void start_irradiance(SourceBake& b) {
         b.report("irradiance", b.done);
         const int bw = b.o.irradiance_bins, bh = b.o.irradiance_bins / 2;
         // What reads the source is done here: the levels below may free it.
-        if (b.irr_from_tree) remove_hot(b.irr_bins, bw, bh, b.integrand.width, b.integrand.height, b.split);
+        if (b.irr_from_tree || b.streamed) remove_hot(b.irr_bins, bw, bh, b.integrand.width, b.integrand.height, b.split);
         else b.irr_bins = reduce_rest_to_bins(b.integrand, b.split, bw, bh);
         b.irr_task.run([&b, bw, bh] { convolve_irradiance(b, bw, bh); });
         b.clock.done("irradiance_start");
@@ -938,7 +938,12 @@ bool stream_front(SourceBake& b, BandSource& src) {
     SummaryStream sums(w, h);
     std::unique_ptr<HotStream> hots;
     if (b.want_irr) hots = std::make_unique<HotStream>(w, h, b.o.max_hot);
-    BinRowStream bins(w, h, b.finest_bins);
+    // The tree's finest bins, and the irradiance's own when the tree's are too coarse for it.
+    const bool need_tree = b.r1 > 0.0;
+    b.irr_from_tree = b.want_irr && need_tree && b.o.irradiance_bins <= b.finest_bins / 4;
+    std::unique_ptr<BinRowStream> bins, irr_bins;
+    if (need_tree) bins = std::make_unique<BinRowStream>(w, h, b.finest_bins);
+    if (b.want_irr && !b.irr_from_tree) irr_bins = std::make_unique<BinRowStream>(w, h, b.o.irradiance_bins);
     std::vector<Cubemap> mirrors;
     std::vector<std::unique_ptr<MirrorStream>> mirror_streams;
     size_t mirror_jobs = 0;
@@ -949,8 +954,11 @@ bool stream_front(SourceBake& b, BandSource& src) {
             mirrors.emplace_back(job.face_size, Uninitialized{});  // every texel written
             mirror_streams.push_back(std::make_unique<MirrorStream>(mirrors.back(), w, h));
         }
-    const int keep = std::max(1, bins.max_reach() - 1);
-    const int band = std::max({src.preferred_band(), bins.max_reach(), 16});
+    int reach = 1;
+    for (const auto* s : {bins.get(), irr_bins.get()})
+        if (s) reach = std::max(reach, s->max_reach());
+    const int keep = std::max(1, reach - 1);
+    const int band = std::max({src.preferred_band(), reach, keep + 1, 16});
     {
         BandRing ring(src, band, keep, b.o.threads != 1);
         std::vector<float*> rows;
@@ -959,14 +967,16 @@ bool stream_front(SourceBake& b, BandSource& src) {
             sums.add_rows(rows.data(), y0, n);
             if (hots) hots->add_rows(rows.data(), y0, n);
             const ImageView v = ring.view();
-            bins.add_rows(v, ring.have0(), ring.have1());
+            for (auto* s : {bins.get(), irr_bins.get()})
+                if (s) s->add_rows(v, ring.have0(), ring.have1());
             for (auto& m : mirror_streams) m->add_rows(v, ring.have0(), ring.have1());
             ring.done();
             b.report("reading source", b.done + 0.05 / b.w_total * double(y0 + n) / h);
         }
     }
     b.advance(0.05);  // hot_split()'s share, done here
-    if (bins.pending() != 0) throw std::logic_error("streamed bake: bin rows left unreduced");
+    for (const auto* s : {bins.get(), irr_bins.get()})
+        if (s && s->pending() != 0) throw std::logic_error("streamed bake: bin rows left unreduced");
     for (auto& m : mirror_streams)
         if (m->pending() != 0) throw std::logic_error("streamed bake: mip 0 texels left unread");
     b.summary = sums.finish();
@@ -996,14 +1006,16 @@ bool stream_front(SourceBake& b, BandSource& src) {
         r.hot_threshold = b.split.threshold;
         r.hot_power_fraction = b.split.hot_power_fraction;
     }
-    // bin_tree(): whole_source_reason() saw to a tree that serves the irradiance too.
-    b.irr_from_tree = b.want_irr;
+    // bin_tree(), and the bins start_irradiance() takes the hot texels from
+    // (reduce_rest_to_bins's reduction when the tree's do not serve).
+    if (irr_bins) b.irr_bins = irr_bins->take_bins();
+    if (!need_tree) return true;
     b.report("specular", b.done);
     r.specular_base_face = b.finest_bins;
     BinTreeOptions tree_options;
     tree_options.channel_mean = r.mean_radiance.data();
-    b.tree = bins.finish(r.mean_radiance.data(), b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins,
-                         tree_options);
+    b.tree = bins->finish(r.mean_radiance.data(), b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins,
+                          tree_options);
     b.clock.done("bin_tree");
     return true;
 }
@@ -1042,12 +1054,21 @@ std::string whole_source_reason(const BakeOptions& o) {
     if (o.sun == SunMode::Split) return "the sun is split from the sky";
     if (o.specular_method != SpecularMethod::Hierarchical) return "filtered importance sampling";
     if (o.extra.keep_source) return "an export keeps the source";
-    const int finest = finest_bin_width(o);
-    if (finest > 512) return "finest bins of " + std::to_string(finest) + " across (over 512)";
-    if (!(smallest_positive_roughness(level_jobs(o)) > 0.0)) return "no specular level at roughness above 0";
-    if ((o.irradiance || o.extra.irradiance) && o.irradiance_bins > finest / 4)
-        return "irradiance bins finer than the specular bins serve";
     return "";
+}
+
+double stream_state_bytes(const BakeOptions& o) {
+    const std::vector<LevelJob> jobs = level_jobs(o);
+    const bool need_tree = smallest_positive_roughness(jobs) > 0.0, want_irr = o.irradiance || o.extra.irradiance;
+    const int finest = finest_bin_width(o);
+    const double bin = double(sizeof(Bin));
+    double bytes = 0.0;
+    if (need_tree) bytes += bin * finest * (finest / 2);
+    if (want_irr && !(need_tree && o.irradiance_bins <= finest / 4))
+        bytes += bin * o.irradiance_bins * (o.irradiance_bins / 2);
+    for (const LevelJob& j : jobs)
+        if (j.roughness == 0.0) bytes += 52.0 * j.face_size * j.face_size;  // MirrorStream's coordinates and buckets
+    return bytes;
 }
 
 std::optional<BakeResult> compute_bake_stream(BandSource& source, const BakeOptions& o, const ProgressFn& progress,

@@ -312,6 +312,11 @@ int BinRowStream::pending() const {
 
 std::pair<int, int> BinRowStream::source_rows(int br) const { return red_.source_rows(br); }
 
+std::vector<Bin> BinRowStream::take_bins() {
+    if (pending() != 0) throw std::logic_error("BinRowStream::take_bins: bin rows whose source rows never came");
+    return std::move(bins_);
+}
+
 BinTree BinRowStream::finish(const double* channel_means, std::vector<Bin>* keep, int keep_w,
                              const BinTreeOptions& options) {
     if (pending() != 0) throw std::logic_error("BinRowStream::finish: bin rows whose source rows never came");

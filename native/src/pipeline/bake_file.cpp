@@ -83,9 +83,15 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     const bool one_thread = plan.bake.threads == 1 || !std::filesystem::is_regular_file(source_path, ec);
     // An EXR file whose bake needs no whole source is decoded in bands and
     // reduced as it goes (issue 28): its memory does not grow with the file.
+    // (When its bins would not take more memory than the source's floats.)
+    std::unique_ptr<ExrRows> exr;
     if (std::filesystem::is_regular_file(source_path, ec) && whole_source_reason(plan.bake).empty() &&
         io::image_format(source_path) == "openexr") {
-        ExrRows rows(source_path);  // refuses what read_image refuses, before any pixel
+        exr = std::make_unique<ExrRows>(source_path);  // refuses what read_image refuses, before any pixel
+        if (stream_state_bytes(plan.bake) >= 12.0 * exr->width() * exr->height()) exr.reset();
+    }
+    if (exr) {
+        ExrRows& rows = *exr;
         src.width = rows.width();
         src.height = rows.height();
         BakeOptions o = plan.bake;
@@ -96,6 +102,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
                [&] { r = compute_bake_stream(rows, o, progress, lut_cache, writer.get()); });
         if (r) return writer->finish(*r, src);
         // Values of 2^64 and more: the overflow guard scales the whole source (nothing written yet).
+        exr.reset();
     }
     io::LoadedImage loaded;
     if (writer) {

@@ -192,10 +192,15 @@ public:
 };
 
 // Why a bake with these options needs the whole source in memory (a turn,
-// the sun split, FIS, the source preset, finest bins over 512 across, an
-// irradiance finer than the bin tree keeps, no level at r > 0), or "" when
-// compute_bake_stream() bakes it from bands.
+// the sun split, FIS, the source preset), or "" when compute_bake_stream()
+// can bake it from bands.
 std::string whole_source_reason(const BakeOptions& options);
+// The memory a streamed bake holds beyond the bands and the outputs, in
+// bytes: level 0 of the bin tree (144 bytes a bin: 19 MB at 512 across, 75 MB
+// at 1024), the irradiance's own bins when the tree's are too coarse, mip
+// 0's lookups. Streaming pays when this is less than the float source (12
+// bytes a texel).
+double stream_state_bytes(const BakeOptions& options);
 
 // The bake of a source read in bands, never held whole: the same outputs as
 // compute_bake() of the image the rows make, to the bit (each stage's

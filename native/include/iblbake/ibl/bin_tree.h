@@ -124,6 +124,9 @@ public:
     int pending() const;                            // bin rows not yet reduced
     BinTree finish(const double* channel_means, std::vector<Bin>* keep = nullptr, int keep_w = 0,
                    const BinTreeOptions& options = {});
+    // Level 0's exact bins alone, row-major (no tree): what
+    // reduce_to_bins(whole image, finest_w, finest_w / 2) gives, to the bit.
+    std::vector<Bin> take_bins();
 
 private:
     int w_;
