@@ -65,9 +65,13 @@ void expect_same(const BakeResult& a, const BakeResult& b, const std::string& wh
     ASSERT_EQ(a.specular.size(), b.specular.size()) << what;
     for (size_t k = 0; k < a.specular.size(); ++k) EXPECT_TRUE(same(a.specular[k].pixels, b.specular[k].pixels)) << what << " level " << k;
     ASSERT_EQ(a.irradiance.has_value(), b.irradiance.has_value()) << what;
-    if (a.irradiance) EXPECT_TRUE(same(a.irradiance->pixels, b.irradiance->pixels)) << what;
+    if (a.irradiance) {
+        EXPECT_TRUE(same(a.irradiance->pixels, b.irradiance->pixels)) << what;
+    }
     ASSERT_EQ(a.lut.has_value(), b.lut.has_value()) << what;
-    if (a.lut) EXPECT_TRUE(same(a.lut->pixels, b.lut->pixels)) << what;
+    if (a.lut) {
+        EXPECT_TRUE(same(a.lut->pixels, b.lut->pixels)) << what;
+    }
     EXPECT_EQ(0, std::memcmp(&a.sh9, &b.sh9, sizeof(a.sh9))) << what;
     EXPECT_EQ(a.mean_radiance, b.mean_radiance) << what;
     EXPECT_EQ(a.bad_input.pixels, b.bad_input.pixels) << what;
@@ -87,7 +91,9 @@ void expect_same(const BakeResult& a, const BakeResult& b, const std::string& wh
         EXPECT_TRUE(same(a.extra_specular[k].cube.pixels, b.extra_specular[k].cube.pixels)) << what << " extra " << k;
     }
     ASSERT_EQ(a.extra_irradiance.has_value(), b.extra_irradiance.has_value()) << what;
-    if (a.extra_irradiance) EXPECT_TRUE(same(a.extra_irradiance->pixels, b.extra_irradiance->pixels)) << what;
+    if (a.extra_irradiance) {
+        EXPECT_TRUE(same(a.extra_irradiance->pixels, b.extra_irradiance->pixels)) << what;
+    }
 }
 
 std::vector<Image> sources() {
