@@ -180,6 +180,65 @@ TEST(StreamedBake, CancelDuringThePassStopsReading) {
     EXPECT_LE(bands.reads, 5);  // the band being read beside the third, at most
 }
 
+// A read that fails (a damaged block) ends the bake with its error, on the
+// first read or on the reader thread's, with one thread or two.
+TEST(StreamedBake, AFailingReadEndsTheBakeWithItsError) {
+    struct Failing final : BandSource {
+        const Image& img;
+        int fail_at, reads = 0;
+        Failing(const Image& i, int f) : img(i), fail_at(f) {}
+        int width() const override { return img.width; }
+        int height() const override { return img.height; }
+        int preferred_band() const override { return 16; }
+        void read(int y0, int rows, float* out) override {
+            if (++reads == fail_at) throw std::runtime_error("cannot read 'x.exr': damaged block");
+            std::memcpy(out, img.at(0, y0), size_t(rows) * img.width * 3 * sizeof(float));
+        }
+    };
+    const Image src = ref::random_smooth_source(256, 128, 2);
+    for (int threads : {1, 2})
+        for (int fail_at : {1, 2, 5, 8}) {
+            BakeOptions o = small_options();
+            o.threads = threads;
+            Failing f(src, fail_at);
+            try {
+                compute_bake_stream(f, o);
+                ADD_FAILURE() << "no error, threads " << threads << " read " << fail_at;
+            } catch (const std::runtime_error& e) {
+                EXPECT_STREQ(e.what(), "cannot read 'x.exr': damaged block");
+            }
+        }
+}
+
+// bake_file on an EXR with a value of 2^64 or more: the stream hands back
+// nothing, the whole image is read and scaled (the overflow guard), the
+// progress never goes back.
+TEST(StreamedBake, BakeFileFallsBackForTheOverflowGuard) {
+    const fs::path dir = fs::temp_directory_path() / ("iblbake_test_overflow_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    Image src = ref::random_smooth_source(1024, 512, 4);
+    src.at(300, 200)[1] = 1e30f;
+    io::write_exr((dir / "s.exr").string(), src, io::ExrPixel::Float);
+    double last = 0.0;
+    bool backwards = false;
+    const nlohmann::json m = bake_file((dir / "s.exr").string(), dir / "out", make_plan(small_options(), WriteOptions{}),
+                                       [&](const std::string&, double f) {
+                                           backwards = backwards || f < last;
+                                           last = f;
+                                           return true;
+                                       });
+    EXPECT_FALSE(backwards);
+    EXPECT_EQ(last, 1.0);
+    bool has_sanitize = false;
+    for (const auto& t : m["timings"].items()) has_sanitize = has_sanitize || t.key() == "sanitize";
+    EXPECT_TRUE(has_sanitize) << "the whole-image path ran";
+    const BakeResult whole = compute_bake(io::read_image((dir / "s.exr").string()).image, small_options());
+    EXPECT_GT(whole.mean_radiance[1], 1e22);  // the texel's light, scaled back
+    EXPECT_NEAR(m["mean_radiance"][1].get<double>() / whole.mean_radiance[1], 1.0, 1e-12);
+    fs::remove_all(dir);
+}
+
 TEST(StreamedBake, OverflowGuardAndWholeSourceOptionsFallBack) {
     Image huge = ref::constant_source(64, 32, 1.0f);
     huge.at(3, 3)[1] = 1e30f;

@@ -971,7 +971,9 @@ bool stream_front(SourceBake& b, BandSource& src) {
                 if (s) s->add_rows(v, ring.have0(), ring.have1());
             for (auto& m : mirror_streams) m->add_rows(v, ring.have0(), ring.have1());
             ring.done();
-            b.report("reading source", b.done + 0.05 / b.w_total * double(y0 + n) / h);
+            // The last band's value is exactly where advance() below puts b.done (no rounding backwards).
+            b.report("reading source", y0 + n == h ? b.done + 0.05 / b.w_total
+                                                   : b.done + 0.05 / b.w_total * double(y0 + n) / h);
         }
     }
     b.advance(0.05);  // hot_split()'s share, done here

@@ -697,6 +697,16 @@ void HotStream::add_rows(const float* const* rows, int y0, int n) {
             const float m = max3(px);
             if (m > floor) found[k].push_back({m, x, y0 + k, {px[0], px[1], px[2]}});
         }
+        // Only a row's keep_ largest can be among the keep_ largest of all
+        // (`larger` is a strict total order): the rest need not wait for the
+        // merge (a whole band of candidates was 24 bytes a texel, 50 MB for
+        // a 16K band of 128 rows, while the heap was filling).
+        std::vector<Entry>& f = found[k];
+        if (f.size() > keep_) {
+            std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(keep_ - 1), f.end(), larger);
+            f.resize(keep_);
+            f.shrink_to_fit();
+        }
     });
     for (const std::vector<Entry>& f : found)
         for (const Entry& e : f) {

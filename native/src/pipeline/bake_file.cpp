@@ -2,6 +2,7 @@
 
 #include <tbb/task_group.h>
 
+#include <algorithm>
 #include <chrono>
 #include <exception>
 #include <filesystem>
@@ -70,6 +71,15 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     const auto start = std::chrono::steady_clock::now();
     SourceInfo src;
     src.path = source_path;
+    // Progress never goes back, not even when the overflow guard's fallback
+    // starts a streamed bake over from the whole image.
+    double reached = 0.0;
+    ProgressFn monotone;
+    if (progress)
+        monotone = [&reached, &progress](const std::string& stage, double f) {
+            reached = std::max(reached, f);
+            return progress(stage, reached);
+        };
     // The file's sha256 and the writer's staging folder, on a task of their
     // own while the source decodes: the decoder's threads leave gaps (its
     // last blocks), and neither needs the pixels. One thread asked for: in turn.
@@ -98,8 +108,9 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
         o.warnings.insert(o.warnings.begin(), rows.warnings().begin(), rows.warnings().end());
         writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
         std::optional<BakeResult> r;
+
         beside(plan.bake.threads == 1, [&] { src.sha256 = io::sha256_file(source_path); },
-               [&] { r = compute_bake_stream(rows, o, progress, lut_cache, writer.get()); });
+               [&] { r = compute_bake_stream(rows, o, monotone, lut_cache, writer.get()); });
         if (r) return writer->finish(*r, src);
         // Values of 2^64 and more: the overflow guard scales the whole source (nothing written yet).
         exr.reset();
@@ -117,7 +128,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     // The plan's options with what the file's reading found odd (the result's first warnings).
     BakeOptions o = plan.bake;
     o.warnings.insert(o.warnings.begin(), loaded.warnings.begin(), loaded.warnings.end());
-    BakeResult r = compute_bake(std::move(loaded.image), o, progress, lut_cache, writer.get());
+    BakeResult r = compute_bake(std::move(loaded.image), o, monotone, lut_cache, writer.get());
     r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
     return writer->finish(r, src);
 }
