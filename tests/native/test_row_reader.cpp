@@ -18,6 +18,7 @@
 #include <OpenEXR/ImfTiledOutputPart.h>
 #include <Imath/half.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
