@@ -130,6 +130,12 @@ int finest_bin_width(const BakeOptions& o) {
     return std::clamp(pow2_ceil(4.4 / radius), 2, 4096);  // an equator bin of w across: radius 4.44 / w
 }
 
+// Whether the tree's kept bins serve the irradiance (its bins at least four
+// times coarser than the finest), which then needs no reduction of its own.
+bool irradiance_from_tree(const BakeOptions& o, bool need_tree, int finest_bins) {
+    return (o.irradiance || o.extra.irradiance) && need_tree && o.irradiance_bins <= finest_bins / 4;
+}
+
 // 0 when the largest value is below 2^64, else the exponent e such that
 // dividing by 2^e brings it there.
 int overflow_guard_exponent(float max_value) {
@@ -584,6 +590,12 @@ void split_sun_stage(SourceBake& b) {
     b.clock.done("sun");
 }
 
+// The SH9 and the mean, the constant band: L_00 = integral of L / (2 sqrt(pi)).
+void set_sh9(BakeResult& r, const std::array<Sh9, 3>& sh9) {
+    r.sh9 = sh9;
+    for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
+}
+
 // The grid the integrals run on, and the SH9 of the radiance on it.
 void sh9(SourceBake& b) {
     BakeResult& r = b.r;
@@ -600,9 +612,7 @@ void sh9(SourceBake& b) {
     // The summary describes the integrand when that is the source unchanged
     // or cleaned (its bad rows summarized again in sanitize()).
     b.summary_holds = b.scale_exp == 0 && same_pixels(b.integrand, b.summary_refreshed ? source : b.scanned);
-    r.sh9 = b.summary_holds ? b.summary.sh9 : project_sh9(b.integrand);
-    // The mean is the constant band: L_00 = integral of L / (2 sqrt(pi)).
-    for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
+    set_sh9(r, b.summary_holds ? b.summary.sh9 : project_sh9(b.integrand));
     b.clock.done("sh9");
 }
 
@@ -631,13 +641,18 @@ void mirror_levels(SourceBake& b) {
     if (mirrored) b.clock.done("specular_mip0");
 }
 
+// The hot split kept, and told in the result.
+void set_split(SourceBake& b, HotSplit&& split) {
+    b.split = std::move(split);
+    b.r.hot_texels = b.split.hot.size();
+    b.r.hot_threshold = b.split.threshold;
+    b.r.hot_power_fraction = b.split.hot_power_fraction;
+}
+
 // The hot texels, integrated exactly by the irradiance and FIS.
 void hot_split(SourceBake& b) {
     if (b.want_irr || (b.r1 > 0.0 && b.fis)) {
-        b.split = split_hot(b.integrand, b.o.hot_threshold, b.o.max_hot, b.summary_holds ? &b.summary.hot : nullptr);
-        b.r.hot_texels = b.split.hot.size();
-        b.r.hot_threshold = b.split.threshold;
-        b.r.hot_power_fraction = b.split.hot_power_fraction;
+        set_split(b, split_hot(b.integrand, b.o.hot_threshold, b.o.max_hot, b.summary_holds ? &b.summary.hot : nullptr));
         b.clock.done("hot_split");
     }
     b.advance(0.05);
@@ -647,7 +662,7 @@ void hot_split(SourceBake& b) {
 // are the irradiance's too, which then needs no pass of its own.
 void bin_tree(SourceBake& b) {
     const bool need_tree = !b.fis && b.r1 > 0.0;
-    b.irr_from_tree = b.want_irr && need_tree && b.o.irradiance_bins <= b.finest_bins / 4;
+    b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
     if (!need_tree) return;
     b.report("specular", b.done);
     b.r.specular_base_face = b.finest_bins;
@@ -940,7 +955,7 @@ bool stream_front(SourceBake& b, BandSource& src) {
     if (b.want_irr) hots = std::make_unique<HotStream>(w, h, b.o.max_hot);
     // The tree's finest bins, and the irradiance's own when the tree's are too coarse for it.
     const bool need_tree = b.r1 > 0.0;
-    b.irr_from_tree = b.want_irr && need_tree && b.o.irradiance_bins <= b.finest_bins / 4;
+    b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
     std::unique_ptr<BinRowStream> bins, irr_bins;
     if (need_tree) bins = std::make_unique<BinRowStream>(w, h, b.finest_bins);
     if (b.want_irr && !b.irr_from_tree) irr_bins = std::make_unique<BinRowStream>(w, h, b.o.irradiance_bins);
@@ -992,8 +1007,7 @@ bool stream_front(SourceBake& b, BandSource& src) {
     b.summary_holds = true;
     r.integration_width = w;
     r.integration_height = h;
-    r.sh9 = b.summary.sh9;
-    for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
+    set_sh9(r, b.summary.sh9);
     // mirror_levels()
     size_t m = 0;
     for (const LevelJob& job : b.jobs) {
@@ -1002,12 +1016,7 @@ bool stream_front(SourceBake& b, BandSource& src) {
         b.finish_level(job, std::move(mirrors[m++]), 1, "bilinear source lookup");
     }
     // hot_split()
-    if (b.want_irr) {
-        b.split = hots->finish(b.o.hot_threshold, b.summary.hot);
-        r.hot_texels = b.split.hot.size();
-        r.hot_threshold = b.split.threshold;
-        r.hot_power_fraction = b.split.hot_power_fraction;
-    }
+    if (b.want_irr) set_split(b, hots->finish(b.o.hot_threshold, b.summary.hot));
     // bin_tree(), and the bins start_irradiance() takes the hot texels from
     // (reduce_rest_to_bins's reduction when the tree's do not serve).
     if (irr_bins) b.irr_bins = irr_bins->take_bins();
@@ -1020,6 +1029,16 @@ bool stream_front(SourceBake& b, BandSource& src) {
                           tree_options);
     b.clock.done("bin_tree");
     return true;
+}
+
+// The stages after the bin tree, the same for a whole and a streamed source.
+BakeResult bake_from_irradiance(SourceBake& b) {
+    start_irradiance(b);
+    specular_levels(b);
+    join_irradiance(b);
+    join_luts(b);
+    finish_and_check(b);
+    return std::move(b.r);
 }
 
 // The bake of `view`. `owned`, when given, holds the same pixels and may be
@@ -1040,12 +1059,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         mirror_levels(b);
         hot_split(b);
         bin_tree(b);
-        start_irradiance(b);
-        specular_levels(b);
-        join_irradiance(b);
-        join_luts(b);
-        finish_and_check(b);
-        return std::move(b.r);
+        return bake_from_irradiance(b);
     });
 }
 
@@ -1066,7 +1080,7 @@ double stream_state_bytes(const BakeOptions& o) {
     const double bin = double(sizeof(Bin));
     double bytes = 0.0;
     if (need_tree) bytes += bin * finest * (finest / 2);
-    if (want_irr && !(need_tree && o.irradiance_bins <= finest / 4))
+    if (want_irr && !irradiance_from_tree(o, need_tree, finest))
         bytes += bin * o.irradiance_bins * (o.irradiance_bins / 2);
     for (const LevelJob& j : jobs)
         if (j.roughness == 0.0) bytes += 52.0 * j.face_size * j.face_size;  // MirrorStream's coordinates and buckets
@@ -1082,12 +1096,7 @@ std::optional<BakeResult> compute_bake_stream(BandSource& source, const BakeOpti
     return in_arena(o.threads, [&]() -> std::optional<BakeResult> {
         SourceBake b(ImageView(nullptr, source.width(), source.height()), nullptr, o, progress, lut_cache, sink);
         if (!stream_front(b, source)) return std::nullopt;
-        start_irradiance(b);
-        specular_levels(b);
-        join_irradiance(b);
-        join_luts(b);
-        finish_and_check(b);
-        return std::move(b.r);
+        return bake_from_irradiance(b);
     });
 }
 

@@ -61,6 +61,13 @@ void beside(bool one_thread, Side&& work, Main&& main) {
     if (side_error) std::rethrow_exception(side_error);
 }
 
+// The plan's options with what the file's reading found odd (the result's first warnings).
+BakeOptions with_reader_warnings(const BakeOptions& plan_options, const std::vector<std::string>& warnings) {
+    BakeOptions o = plan_options;
+    o.warnings.insert(o.warnings.begin(), warnings.begin(), warnings.end());
+    return o;
+}
+
 }  // namespace
 
 nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakePlan& plan,
@@ -90,12 +97,13 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
         writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
     };
     std::error_code ec;
-    const bool one_thread = plan.bake.threads == 1 || !std::filesystem::is_regular_file(source_path, ec);
+    const bool regular = std::filesystem::is_regular_file(source_path, ec);  // the reader refuses the rest
+    const bool one_thread = plan.bake.threads == 1 || !regular;
     // An EXR file whose bake needs no whole source is decoded in bands and
     // reduced as it goes (issue 28): its memory does not grow with the file.
     // (When its bins would not take more memory than the source's floats.)
     std::unique_ptr<ExrRows> exr;
-    if (std::filesystem::is_regular_file(source_path, ec) && whole_source_reason(plan.bake).empty() &&
+    if (regular && whole_source_reason(plan.bake).empty() &&
         io::image_format(source_path) == "openexr") {
         exr = std::make_unique<ExrRows>(source_path);  // refuses what read_image refuses, before any pixel
         if (stream_state_bytes(plan.bake) >= 12.0 * exr->width() * exr->height()) exr.reset();
@@ -104,11 +112,9 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
         ExrRows& rows = *exr;
         src.width = rows.width();
         src.height = rows.height();
-        BakeOptions o = plan.bake;
-        o.warnings.insert(o.warnings.begin(), rows.warnings().begin(), rows.warnings().end());
+        const BakeOptions o = with_reader_warnings(plan.bake, rows.warnings());
         writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
         std::optional<BakeResult> r;
-
         beside(plan.bake.threads == 1, [&] { src.sha256 = io::sha256_file(source_path); },
                [&] { r = compute_bake_stream(rows, o, monotone, lut_cache, writer.get()); });
         if (r) return writer->finish(*r, src);
@@ -125,9 +131,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     src.height = loaded.image.height;
     src.linearised = loaded.linearised;
     const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    // The plan's options with what the file's reading found odd (the result's first warnings).
-    BakeOptions o = plan.bake;
-    o.warnings.insert(o.warnings.begin(), loaded.warnings.begin(), loaded.warnings.end());
+    const BakeOptions o = with_reader_warnings(plan.bake, loaded.warnings);
     BakeResult r = compute_bake(std::move(loaded.image), o, monotone, lut_cache, writer.get());
     r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
     return writer->finish(r, src);
