@@ -255,58 +255,56 @@ HotRows hot_rows(ImageView img) {
     return r;
 }
 
-namespace {
-
-// A texel that may be hot: where, its largest channel, its value.
-struct HotCandidate {
-    int x, y;
+// A texel that may be hot: its largest channel, where, its value (split_hot's
+// candidates, and the texels HotStream keeps).
+struct HotStream::Entry {
     float m;
+    int x, y;
     float rgb[3];
 };
 
+namespace {
+
 // split_hot's points of the texels above out.threshold (given in row-major
 // order), and the hot power's fraction of total_power.
-void make_hot_points(HotSplit& out, int w, int h, const std::vector<HotCandidate>& hot, double total_power) {
+void make_hot_points(HotSplit& out, int w, int h, const std::vector<HotStream::Entry>& hot, double total_power) {
     const LatLongTables tab(w, h);
     // A texel's value reaches the sphere through its hats (SPEC's bilinear
     // L): its point carries the hats' integrals (over the whole sphere).
     const std::vector<HatPiece> lon_hats = hat_pieces_lon(w, 1), lat_hats = hat_pieces_lat(h, 1);
     double hot_power = 0.0;
     const double threshold = out.threshold;
-    for (const HotCandidate& c : hot) {
+    for (const HotStream::Entry& c : hot) {
+        const int x = c.x, y = c.y;
+        const float* px = c.rgb;
+        const float scale = float(threshold / c.m);
+        HotTexel t{x, y, {0, 0, 0}};
+        RadiancePoint p;
+        const Vec3d d = tab.engine_dir(x, y);
+        const double* U = lon_hats[x].w;
+        const double* V = lat_hats[y].w;
+        const double om = U[0] * V[0];
+        const Vec3d md = Vec3d{U[1] * V[3], U[0] * V[1], -U[2] * V[3]} / om;
+        p.dir[0] = float(d.x); p.dir[1] = float(d.y); p.dir[2] = float(d.z);
+        p.mean_dir[0] = float(md.x); p.mean_dir[1] = float(md.y); p.mean_dir[2] = float(md.z);
         {
-            const int x = c.x, y = c.y;
-            const float m = c.m;
-            const float* px = c.rgb;
-            const float scale = float(threshold / m);
-            HotTexel t{x, y, {0, 0, 0}};
-            RadiancePoint p;
-            const Vec3d d = tab.engine_dir(x, y);
-            const double* U = lon_hats[x].w;
-            const double* V = lat_hats[y].w;
-            const double om = U[0] * V[0];
-            const Vec3d md = Vec3d{U[1] * V[3], U[0] * V[1], -U[2] * V[3]} / om;
-            p.dir[0] = float(d.x); p.dir[1] = float(d.y); p.dir[2] = float(d.z);
-            p.mean_dir[0] = float(md.x); p.mean_dir[1] = float(md.y); p.mean_dir[2] = float(md.z);
-            {
-                Bin one{};
-                const double unit[3] = {1.0, 0.0, 0.0}, s0[3] = {V[0], 0, 0}, s1[3] = {V[1], 0, 0},
-                             s2[3] = {V[2], 0, 0}, c0[3] = {V[3], 0, 0}, c1[3] = {V[4], 0, 0};
-                add_hat_product(one, unit, s0, s1, s2, c0, c1, U);
-                const double* sm = one.second;
-                const double cv[6] = {sm[0] / om - md.x * md.x, sm[1] / om - md.y * md.y, sm[2] / om - md.z * md.z,
-                                      sm[3] / om - md.x * md.y, sm[4] / om - md.x * md.z, sm[5] / om - md.y * md.z};
-                for (int k = 0; k < 6; ++k) p.cov[k] = float(cv[k]);
-            }
-            for (int k = 0; k < 3; ++k) {
-                const float rest = px[k] * scale;
-                t.removed[k] = px[k] - rest;
-                p.power[k] = float(double(t.removed[k]) * om);
-                hot_power += p.power[k];
-            }
-            out.texels.push_back(t);
-            out.hot.push_back(p);
+            Bin one{};
+            const double unit[3] = {1.0, 0.0, 0.0}, s0[3] = {V[0], 0, 0}, s1[3] = {V[1], 0, 0},
+                         s2[3] = {V[2], 0, 0}, c0[3] = {V[3], 0, 0}, c1[3] = {V[4], 0, 0};
+            add_hat_product(one, unit, s0, s1, s2, c0, c1, U);
+            const double* sm = one.second;
+            const double cv[6] = {sm[0] / om - md.x * md.x, sm[1] / om - md.y * md.y, sm[2] / om - md.z * md.z,
+                                  sm[3] / om - md.x * md.y, sm[4] / om - md.x * md.z, sm[5] / om - md.y * md.z};
+            for (int k = 0; k < 6; ++k) p.cov[k] = float(cv[k]);
         }
+        for (int k = 0; k < 3; ++k) {
+            const float rest = px[k] * scale;
+            t.removed[k] = px[k] - rest;
+            p.power[k] = float(double(t.removed[k]) * om);
+            hot_power += p.power[k];
+        }
+        out.texels.push_back(t);
+        out.hot.push_back(p);
     }
     out.hot_power_fraction = total_power > 0.0 ? hot_power / total_power : 0.0;
 }
@@ -350,12 +348,12 @@ HotSplit split_hot(ImageView img, double relative_threshold, int max_hot, const 
         threshold = above[max_hot];
     }
     out.threshold = threshold;
-    std::vector<HotCandidate> hot;
+    std::vector<HotStream::Entry> hot;
     for (int y = 0; y < h; ++y)
         for (const auto& [x, m] : row_cands[y]) {
             if (!(m > threshold)) continue;
             const float* px = img.at(x, y);
-            hot.push_back({x, y, m, {px[0], px[1], px[2]}});
+            hot.push_back({m, x, y, {px[0], px[1], px[2]}});
         }
     make_hot_points(out, w, h, hot, total_power);
     return out;
@@ -667,12 +665,6 @@ SourceSummary SummaryStream::finish() {
 
 // The heap's order: the largest channel, then the position (any strict
 // order does: only the values decide the threshold).
-struct HotStream::Entry {
-    float m;
-    int x, y;
-    float rgb[3];
-};
-
 namespace {
 bool larger(const HotStream::Entry& a, const HotStream::Entry& b) {
     if (a.m != b.m) return a.m > b.m;
@@ -735,11 +727,10 @@ HotSplit HotStream::finish(double relative_threshold, const HotRows& rows) {
     if (top_.size() == keep_ && double(top_.front().m) > threshold) threshold = double(top_.front().m);
     HotSplit out;
     out.threshold = threshold;
-    std::vector<HotCandidate> hot;
-    std::vector<Entry> kept = top_;
-    std::sort(kept.begin(), kept.end(), [](const Entry& a, const Entry& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
-    for (const Entry& e : kept)
-        if (e.m > threshold) hot.push_back({e.x, e.y, e.m, {e.rgb[0], e.rgb[1], e.rgb[2]}});
+    std::vector<Entry> hot;
+    for (const Entry& e : top_)
+        if (e.m > threshold) hot.push_back(e);
+    std::sort(hot.begin(), hot.end(), [](const Entry& a, const Entry& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
     make_hot_points(out, w_, h_, hot, total_power);
     return out;
 }

@@ -291,11 +291,10 @@ void note_choice(const ChannelChoice& c, RawPixels& out) {
                                "' is baked as the colour");
 }
 
-// A multi-part file: the first part with colour (else the first with Y).
-RawPixels read_exr_parts(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress) {
-    Imf::MultiPartInputFile file(path.c_str(), exr_line_buffer_threads());
+// A multi-part file's part to bake: the first with colour (else the first
+// with Y), and its channels; throws when no part holds an image.
+int choose_part(Imf::MultiPartInputFile& file, ChannelChoice& choice) {
     int best = -1;
-    ChannelChoice choice;
     std::string why;
     for (int i = 0; i < file.parts(); ++i) {
         const Imf::Header& h = file.header(i);
@@ -312,6 +311,14 @@ RawPixels read_exr_parts(const std::string& path, uintmax_t file_size, const std
     if (best < 0)
         throw std::runtime_error("none of its " + std::to_string(file.parts()) + " parts holds an image to bake: " +
                                  (why.empty() ? "all are deep" : "the first one: " + why));
+    return best;
+}
+
+// A multi-part file: the first part with colour (else the first with Y).
+RawPixels read_exr_parts(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress) {
+    Imf::MultiPartInputFile file(path.c_str(), exr_line_buffer_threads());
+    ChannelChoice choice;
+    const int best = choose_part(file, choice);
     RawPixels out;
     out.format = "openexr";
     const Imf::Header& h = file.header(best);
@@ -501,25 +508,8 @@ struct ExrRowReader::Impl {
         std::vector<std::string> reader_warnings;
         if (head[5] & 0x10) {  // read_exr_parts' choice
             multi = std::make_unique<Imf::MultiPartInputFile>(path.c_str(), detail::exr_line_buffer_threads());
-            int best = -1;
             detail::ChannelChoice choice;
-            std::string why;
-            for (int i = 0; i < multi->parts(); ++i) {
-                const Imf::Header& hd = multi->header(i);
-                if (hd.hasType() && (hd.type() == Imf::DEEPSCANLINE || hd.type() == Imf::DEEPTILE)) continue;
-                std::string part_why;
-                detail::ChannelChoice c = detail::choose_channels(hd.channels(), part_why);
-                if (c.names.size() == 3) {
-                    best = i, choice = std::move(c);
-                    break;
-                }
-                if (!c.names.empty() && best < 0) best = i, choice = std::move(c);
-                if (why.empty()) why = part_why;
-            }
-            if (best < 0)
-                throw std::runtime_error("none of its " + std::to_string(multi->parts()) +
-                                         " parts holds an image to bake: " +
-                                         (why.empty() ? "all are deep" : "the first one: " + why));
+            const int best = detail::choose_part(*multi, choice);
             const Imf::Header& hd = multi->header(best);
             take(hd, file_size);
             part = std::make_unique<Imf::InputPart>(*multi, best);
@@ -624,24 +614,14 @@ struct ExrRowReader::Impl {
     }
 };
 
-namespace {
-// read_image's message for a file it cannot read (image_io.cpp's fail()).
-[[noreturn]] void fail_rows(const std::string& path, const std::string& why) {
-    std::string msg = why;
-    std::replace(msg.begin(), msg.end(), '\n', ' ');
-    while (!msg.empty() && msg.back() == ' ') msg.pop_back();
-    throw std::runtime_error("cannot read '" + printable(path) + "': " + printable(msg));
-}
-}  // namespace
-
 ExrRowReader::ExrRowReader(const std::string& path) : impl_(std::make_unique<Impl>()) {
     impl_->path = path;
     try {
         impl_->open(path);
     } catch (const std::bad_alloc&) {
-        fail_rows(path, "out of memory while reading");
+        detail::fail_reading(path, "out of memory while reading");
     } catch (const std::exception& e) {
-        fail_rows(path, e.what());
+        detail::fail_reading(path, e.what());
     }
 }
 
@@ -663,9 +643,9 @@ void ExrRowReader::read(int y0, int rows, float* out) {
     } catch (const std::out_of_range&) {
         throw;  // the caller's rows, not the file
     } catch (const std::bad_alloc&) {
-        fail_rows(impl_->path, "out of memory while reading");
+        detail::fail_reading(impl_->path, "out of memory while reading");
     } catch (const std::exception& e) {  // a block that does not decode (OpenEXR's Iex exceptions)
-        fail_rows(impl_->path, e.what());
+        detail::fail_reading(impl_->path, e.what());
     }
 }
 

@@ -25,15 +25,15 @@ namespace iblbake::io {
 
 using detail::RawPixels;
 
-namespace {
-
-[[noreturn]] void fail(const std::string& path, const std::string& why) {
+void detail::fail_reading(const std::string& path, const std::string& why) {
     std::string msg = why;
     std::replace(msg.begin(), msg.end(), '\n', ' ');
     while (!msg.empty() && msg.back() == ' ') msg.pop_back();
     // A fuzzed header's bytes never reach the terminal raw.
     throw std::runtime_error("cannot read '" + printable(path) + "': " + printable(msg));
 }
+
+namespace {
 
 std::string size_text(int64_t w, int64_t h) { return std::to_string(w) + " x " + std::to_string(h); }
 
@@ -81,14 +81,14 @@ const Plugin& plugin() {
 
 RawPixels read_with_plugin(const std::string& path, const std::string& format, uintmax_t file_size) {
     const Plugin& p = plugin();
-    if (!p.read) fail(path, p.error);
+    if (!p.read) detail::fail_reading(path, p.error);
     detail::IblbakeOiioImage img{};
     char error[512] = {0};
     const long long max_values = (long long)std::min<uintmax_t>(
         uintmax_t(kMaxSourcePixels) * 4, std::max<uintmax_t>(file_size, 1) * (kMaxExpansion / sizeof(float)));
     const int rc = p.read(path.c_str(), format.c_str(), kMaxSourceSide, max_values, &img, error, sizeof(error));
     if (rc == 2) detail::check_declared(img.width, img.height, img.channels, file_size);  // throws
-    if (rc != 1) fail(path, error);
+    if (rc != 1) detail::fail_reading(path, error);
     RawPixels raw;
     raw.width = img.width;
     raw.height = img.height;
@@ -293,35 +293,35 @@ LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
     std::error_code ec;
     // stat() before open(): a FIFO would block the open, a device never ends.
     const fs::file_status st = fs::status(path, ec);
-    if (st.type() == fs::file_type::not_found) fail(path, "no such file");
-    if (ec) fail(path, ec.message());
-    if (st.type() == fs::file_type::directory) fail(path, "is a directory");
+    if (st.type() == fs::file_type::not_found) detail::fail_reading(path, "no such file");
+    if (ec) detail::fail_reading(path, ec.message());
+    if (st.type() == fs::file_type::directory) detail::fail_reading(path, "is a directory");
     if (st.type() != fs::file_type::regular) {
         const char* kind = st.type() == fs::file_type::fifo        ? "a FIFO"
                            : st.type() == fs::file_type::character ? "a character device"
                            : st.type() == fs::file_type::block     ? "a block device"
                            : st.type() == fs::file_type::socket    ? "a socket"
                                                                    : "not a file";
-        fail(path, std::string("is not a regular file (") + kind + ")");
+        detail::fail_reading(path, std::string("is not a regular file (") + kind + ")");
     }
     const uintmax_t size = fs::file_size(path, ec);
-    if (ec) fail(path, ec.message());
-    if (size == 0) fail(path, "file is empty");
+    if (ec) detail::fail_reading(path, ec.message());
+    if (size == 0) detail::fail_reading(path, "file is empty");
     std::string format;
     {
         std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-        if (!f) fail(path, std::strerror(errno));
+        if (!f) detail::fail_reading(path, std::strerror(errno));
         format = format_of(f.get(), path);
         if (format.empty())
-            fail(path, "not an image format iblbake reads (its first bytes are not EXR, PNG, JPEG, Radiance HDR, "
+            detail::fail_reading(path, "not an image format iblbake reads (its first bytes are not EXR, PNG, JPEG, Radiance HDR, "
                        "TIFF, ... and its extension names none)");
         if (format == "jpeg" && is_jpeg_magic(f.get()) && !jpeg_has_end(f.get(), size))
-            fail(path, "JPEG file is truncated (no end-of-image marker)");
+            detail::fail_reading(path, "JPEG file is truncated (no end-of-image marker)");
         if (format == "hdr" && radiance_is_xyz(f.get()))
-            fail(path, "a Radiance file in CIE XYZ (FORMAT=32-bit_rle_xyze), which iblbake does not read: "
+            detail::fail_reading(path, "a Radiance file in CIE XYZ (FORMAT=32-bit_rle_xyze), which iblbake does not read: "
                        "convert it to RGBE or EXR");
         if (format == "dds")
-            fail(path, "a DDS texture (a GPU container, as iblbake's own exports are), not a lat-long source: "
+            detail::fail_reading(path, "a DDS texture (a GPU container, as iblbake's own exports are), not a lat-long source: "
                        "bake from the EXR or HDR it was made from");
     }
     try {
@@ -337,13 +337,13 @@ LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
         if (progress) progress(1.0);
         return out;
     } catch (const std::bad_alloc&) {
-        fail(path, "out of memory while reading");
+        detail::fail_reading(path, "out of memory while reading");
     } catch (const std::runtime_error& e) {
         const std::string prefix = "cannot read '";
         if (std::string(e.what()).rfind(prefix, 0) == 0) throw;  // already names the file
-        fail(path, e.what());
+        detail::fail_reading(path, e.what());
     } catch (const std::exception& e) {
-        fail(path, e.what());
+        detail::fail_reading(path, e.what());
     }
 }
 

@@ -26,6 +26,9 @@ struct RawPixels {
 // The OpenEXR reader and writer (exr_file.cpp) and the PNG writer (png_file.cpp); the writers take
 // their pixels in bands of rows from `fill` (io::write_exr and friends hand them a whole buffer so).
 bool is_exr(const std::string& path);
+// read_image's error for a file it cannot read: "cannot read '<path>': <why>",
+// on one line, unprintable bytes escaped (image_io.cpp; ExrRowReader's too).
+[[noreturn]] void fail_reading(const std::string& path, const std::string& why);
 // Throws unless width x height x channels floats is within the maximum size
 // and plausible for a file of `file_size` bytes (io/image_io.h).
 void check_declared(int64_t width, int64_t height, int channels, uintmax_t file_size);
