@@ -15,6 +15,7 @@ import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from iblbake import world_reader  # noqa: E402  (the package folder is named iblbake in every install)
+from iblbake.core.worker import lower_priority  # noqa: E402
 
 
 def _print_samples(stats, *_):
@@ -28,6 +29,7 @@ def _print_samples(stats, *_):
 
 
 def main(argv):
+    lower_priority(all_threads=True)  # the open Blender's drawing first (Cycles' threads, made later, inherit it)
     bpy.app.handlers.render_stats.append(_print_samples)
     blend, name, width, samples, frame, out, notes_path = argv
     world = None

@@ -532,7 +532,9 @@ class ChildRender:
         cmd = [bpy.app.binary_path, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1",
                "--python", script, "--", self.blend if self.world is not None else "", name, str(width),
                str(samples), str(frame), self.exr, self.notes_path]
-        if shutil.which("nice"):  # the open Blender's UI comes first (core/worker.py says why this is fair)
+        # The open Blender's UI comes first (core/worker.py's lower_priority says how, and why that is fair;
+        # render_child.py lowers its threads further before Cycles starts).
+        if shutil.which("nice"):
             cmd = ["nice", "-n", str(NICE)] + cmd
         self._reader = threading.Thread(target=self._spawn_and_read, args=(cmd,), name="iblbake render log",
                                         daemon=True)

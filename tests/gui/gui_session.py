@@ -70,6 +70,7 @@ class Pulse:
         if self.last is not None:
             gap = now - self.last
             self.all.append(gap)
+            self.ends.append(now)
             own = gap - (wait - self.last_wait)
             if gap > self.gaps.get(label, 0.0):
                 self.gaps[label] = gap
@@ -88,6 +89,7 @@ class Pulse:
     def reset(self, label):
         self.gaps, self.own, self.cpu, self.ticks, self.trace, self.label = {}, {}, {}, {}, [], label
         self.all = []       # every gap (s), in order
+        self.ends = []      # when each gap ended (perf_counter)
         self.last_cpu = time.thread_time()
         self.code = {}      # our main-thread callbacks: name -> longest call (s)
         self.last = time.perf_counter()
@@ -95,6 +97,91 @@ class Pulse:
 
 
 PULSE = Pulse()
+
+
+def cpu_ticks():
+    """{(pid, tid): (process name, thread name, clock ticks on a CPU)} of every
+    thread on the host, from /proc: who used the CPU between two calls."""
+    out = {}
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            with open("/proc/%s/comm" % pid) as f:
+                proc = f.read().strip()
+            tids = os.listdir("/proc/%s/task" % pid)
+        except OSError:
+            continue
+        for tid in tids:
+            try:
+                with open("/proc/%s/task/%s/stat" % (pid, tid)) as f:
+                    stat = f.read()
+            except OSError:
+                continue
+            name, rest = stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+            out[(int(pid), int(tid))] = (proc, name, int(rest[11]) + int(rest[12]))  # utime + stime
+    return out
+
+
+UPDATES = []  # (time, names of the IDs a depsgraph update touched): what makes Blender redraw or re-render
+
+
+@bpy.app.handlers.persistent
+def note_updates(_scene, depsgraph):
+    UPDATES.append((time.perf_counter(), sorted({u.id.name for u in depsgraph.updates})))
+
+
+DRAWS = []  # (time, editor): every region redraw of the editors below
+
+
+def count_draws():
+    """Notes each redraw of these editors' main regions (what the window spends its GL time on)."""
+    for space in (bpy.types.SpaceView3D, bpy.types.SpaceProperties, bpy.types.SpaceImageEditor,
+                  bpy.types.SpaceOutliner, bpy.types.SpaceTimeline if hasattr(bpy.types, "SpaceTimeline") else
+                  bpy.types.SpaceDopeSheetEditor):
+        space.draw_handler_add(lambda name=space.__name__: DRAWS.append((time.perf_counter(), name)), (),
+                               "WINDOW", "POST_PIXEL")
+
+
+def draws_since(start):
+    seen = {}
+    for t, name in DRAWS:
+        if t >= start:
+            seen[name] = seen.get(name, 0) + 1
+    return seen
+
+
+def big_gaps(start, top=8):
+    """The longest gaps since `start`, each with the redraws and status changes that fell in it."""
+    pairs = sorted(zip(PULSE.all, PULSE.ends), reverse=True)[:top]
+    return [[round(g, 3), round(e - start, 2), [n for t, n in DRAWS if e - g <= t <= e]] for g, e in pairs]
+
+
+def updates_since(start):
+    """The depsgraph updates since `start`: how many, and the IDs they touched most often."""
+    seen = {}
+    count = 0
+    for t, names in UPDATES:
+        if t >= start:
+            count += 1
+            for n in names:
+                seen[n] = seen.get(n, 0) + 1
+    return {"count": count, "ids": sorted(seen.items(), key=lambda kv: -kv[1])[:5]}
+
+
+def busiest(before, seconds, top=6):
+    """The threads that used the most CPU since `before` (cpu_ticks()), as
+    "process/thread pid: share of a core", busiest first; threads of one
+    process with one name (llvmpipe-0..N, TBB's workers) are added up."""
+    hz = os.sysconf("SC_CLK_TCK")
+    use = {}
+    for key, (proc, name, ticks) in cpu_ticks().items():
+        used = ticks - before.get(key, (proc, name, 0))[2]
+        if used > 0:
+            label = "%s/%s %d" % (proc, name.rstrip("0123456789-:") or name, key[0])
+            use[label] = use.get(label, 0) + used
+    ranked = sorted(use.items(), key=lambda kv: -kv[1])[:top]
+    return ["%s: %.2f" % (label, ticks / hz / max(seconds, 1e-3)) for label, ticks in ranked]
 
 
 def timed(cls, name):
@@ -256,12 +343,39 @@ def status_lines():
                                                                      plan.settings_hash)) if old else ""}
 
 
+def children_priorities():
+    """{process name: sorted "policy/nice" of its threads} for this Blender's
+    child processes (the bake's Python, the Cycles render's Blender):
+    policy 5 is SCHED_IDLE (proc(5), /proc/PID/stat fields 19 and 41)."""
+    out = {}
+    me = os.getpid()
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            with open("/proc/%s/stat" % pid) as f:
+                stat = f.read()
+            name = stat[stat.index("(") + 1:stat.rindex(")")]
+            if int(stat.rsplit(")", 1)[1].split()[1]) != me or name in ("import", "xdotool"):
+                continue  # the screenshots' and the key presses' are the test's
+            seen = set()
+            for tid in os.listdir("/proc/%s/task" % pid):
+                with open("/proc/%s/task/%s/stat" % (pid, tid)) as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+                seen.add("%s/%s" % (fields[38], fields[16]))
+            out[name + " " + pid] = sorted(seen)
+        except (OSError, ValueError, IndexError):
+            continue
+    return out
+
+
 def bake_and_watch(key, shot=True, confirm=None):
     """Clicks Bake and follows it to the end (the generator's caller waits).
     confirm: the key that answers Blender's dialog, if the bake asks first."""
     state = addon("state")
+    settled = yield from settle()
     PULSE.reset(key)
-    start = time.perf_counter()
+    start, before = time.perf_counter(), cpu_ticks()
     result = click_bake()
     asked = "RUNNING_MODAL" in result and state.RUN is None
     if confirm:
@@ -271,8 +385,15 @@ def bake_and_watch(key, shot=True, confirm=None):
         press(confirm, move=False)
         yield 1.0
     shot_taken, past = not shot, None
+    priorities, entered = {}, {}
     deadline = time.perf_counter() + 900
     while state.RUN is not None and time.perf_counter() < deadline:
+        # The children's CPU priority, a tenth of a second into the file's reading or the Cycles render.
+        stage = state.RUN.stage
+        if stage in ("Reading the image", "Rendering with Cycles") and stage not in priorities:
+            entered.setdefault(stage, time.perf_counter())
+            if time.perf_counter() - entered[stage] > 0.1:
+                priorities[stage] = children_priorities()
         # A quarter second past "Starting", once the panel has redrawn the
         # bar (a fast bake's integration stages can pass between two polls;
         # reading or rendering lasts longer).
@@ -289,26 +410,49 @@ def bake_and_watch(key, shot=True, confirm=None):
         "own": dict(PULSE.own), "cpu": dict(PULSE.cpu), "code": dict(PULSE.code), "ticks": dict(PULSE.ticks),
         "all_gaps": list(PULSE.all), "trace": [(t - start, s, f) for t, s, f in PULSE.trace],
         "progress": [f for _, _, f in PULSE.trace], "stages": [s for _, s, _ in PULSE.trace],
-        "out": scene.iblbake.last_output}
+        "out": scene.iblbake.last_output, "busiest": busiest(before, time.perf_counter() - start),
+        "draws": draws_since(start), "updates": updates_since(start),
+        "big_gaps": big_gaps(start), "settled": settled, "priorities": priorities}
     PULSE.reset("idle")
 
 
-def idle_window(seconds=4.0):
+def settle(quiet=1.0, longest=10.0):
+    """Waits until no editor but the Properties has redrawn for `quiet`
+    seconds (at most `longest`); returns how long it waited. A change of any
+    scene property (the panel's settings, as cancel_at() restores them)
+    makes the 3D Viewport draw its anti-aliasing samples again: eight
+    redraws of about 0.3 s each on Xvfb's software OpenGL, Blender's own
+    work, which neither a bake nor its idle baseline must be charged with."""
+    start = time.perf_counter()
+    yield 0.2  # the notifiers of a change made just before are handled in the next turns of the event loop
+    while time.perf_counter() - start < longest:
+        now = time.perf_counter()
+        if not any(now - t < quiet for t, name in DRAWS if name != "SpaceProperties"):
+            break
+        yield 0.1
+    return time.perf_counter() - start
+
+
+def idle_window(name, seconds=4.0):
     """No bake: the UI doing what it does while a bake runs - World
     Properties and the status bar redrawn as often as the bar is at most
     (operators.REDRAW_INTERVAL) - so that what a bake adds is what its work
     takes from the UI; the gaps kept for the baseline. (Each redraw draws
     the whole window: a software renderer on Xvfb feels it.)"""
+    settled = yield from settle()
     PULSE.reset("idle")
     interval = addon("operators").REDRAW_INTERVAL
-    end = time.perf_counter() + seconds
+    before, start = cpu_ticks(), time.perf_counter()
+    end = start + seconds
     while time.perf_counter() < end:
         addon("state").redraw(bpy.context, only_world=True)
         yield interval
     with open("/proc/loadavg") as f:
         load = f.read().split()[0]
     RESULT["idle"].append({"gaps": list(PULSE.all), "own": max(PULSE.own.values() or [0.0]),
-                           "cpu": max(PULSE.cpu.values() or [0.0]), "load": load})
+                           "cpu": max(PULSE.cpu.values() or [0.0]), "load": load, "name": name, "settled": settled,
+                           "busiest": busiest(before, time.perf_counter() - start),
+                           "updates": updates_since(start), "draws": draws_since(start)})
     PULSE.reset("idle")
 
 
@@ -370,6 +514,8 @@ def scenario():
         for name in names:
             timed(cls, name)
     bpy.app.timers.register(PULSE, first_interval=0.01, persistent=True)
+    bpy.app.handlers.depsgraph_update_post.append(note_updates)
+    count_draws()
     keep_only_our_world_panels()
     yield 0.5
     win, area, _region = properties_area()
@@ -394,12 +540,12 @@ def scenario():
     scene.world = image_world(BIG_EXR)
     yield 1.0
     yield from shot("image_before", scroll="top")
-    yield from idle_window()
+    yield from idle_window("before_image")
     yield from bake_and_watch("image")
     yield 1.0
     yield from shot("image_after", scroll="top")
     yield from shot("image_files", scroll=30)
-    yield from idle_window()
+    yield from idle_window("after_image")
     folder = RESULT["bakes"]["image"]["out"]
 
     # Open Output Folder without a file manager: the panel says where the files are, below the bake's result.
@@ -428,16 +574,16 @@ def scenario():
     # bench/ui_gaps_sky_world.py), which the bake must not be charged with:
     # let it finish, then an idle window in this state.
     yield 4.0
-    yield from idle_window()
+    yield from idle_window("before_sky")
     yield from bake_and_watch("sky")
     yield 1.0
     yield from shot("sky_after", scroll="top")
-    yield from idle_window()
+    yield from idle_window("after_sky")
     folder = RESULT["bakes"]["sky"]["out"]
     yield from cancel_at("sky_render_esc", "Rendering with Cycles", "esc", folder)
     yield from cancel_at("sky_render_button", "Rendering with Cycles", "button", folder)
     yield from cancel_at("sky_bake_button", "Specular levels", "button", folder, face_size=1024)
-    yield from idle_window()
+    yield from idle_window("after_sky_cancels")
 
     # 1-3. Every roughness with three.js and Khronos, then This Scene's Materials into the same
     # folder: Blender's dialog says what would go; Esc keeps it all, Return bakes.

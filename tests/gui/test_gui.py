@@ -147,6 +147,20 @@ def report(res):
                      "the margins (p99 %s, longest %s): a bake's difference could be the load's" % (
                          " ".join("%.3f" % v for v in idle["window_p99"]),
                          " ".join("%.3f" % v for v in idle["window_max"])))
+    lines.append("  who used the CPU (share of a core) during each idle window and bake:")
+    for w in res["idle"]:
+        lines.append("    idle %-18s (after %.1f s of settling) load %-5s longest %.3f p99 %.3f: %s" % (
+            w.get("name", "?"), w.get("settled", 0.0), w.get("load", "?"), max(w["gaps"] or [0]),
+            percentile(w["gaps"], 99),
+            "; ".join(w.get("busiest", []))))
+        if w.get("draws"):
+            lines.append("      redraws: %s" % w["draws"])
+        if w.get("updates", {}).get("count"):
+            lines.append("      %d depsgraph updates: %s" % (w["updates"]["count"], w["updates"]["ids"]))
+    for name, b in res["bakes"].items():
+        if b.get("busiest"):
+            lines.append("    bake %-18s %s" % (name, "; ".join(b["busiest"])))
+            lines.append("      redraws: %s; depsgraph updates: %s" % (b.get("draws"), b.get("updates")))
     lines.append("  worst stage per bake (wall / without waiting for a CPU / main-thread CPU; our code's longest call):")
     for name, b in list(res["bakes"].items()) + list(res["cancels"].items()):
         stages = sorted(b["gaps"], key=lambda s: -b["gaps"][s])
@@ -213,6 +227,12 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
         prog = b["progress"]
         assert all(a <= c for a, c in zip(prog, prog[1:])), prog
         assert len(set(prog)) >= 3 and max(prog) >= 90.0, prog
+    # The bake's children (its Python, Cycles' Blender) run at nice 19 in SCHED_IDLE, every thread:
+    # Blender's drawing threads preempt them at once.
+    prio = dict(res["bakes"]["image"]["priorities"], **res["bakes"]["sky"]["priorities"])
+    print("the bakes' children, policy/nice of their threads (5: SCHED_IDLE): %s" % prio)
+    assert set(prio) == {"Reading the image", "Rendering with Cycles"}, prio
+    assert all(procs and all(v == ["5/19"] for v in procs.values()) for procs in prio.values()), prio
     assert res["bakes"]["sky"]["ticks"].get("Specular levels", 0) + res["bakes"]["sky"]["ticks"].get(
         "Writing files", 0) >= 1
 

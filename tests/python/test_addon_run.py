@@ -352,9 +352,11 @@ def test_the_bake_process_runs_at_the_lowest_priority(tmp_path):
     while job.proc is None or job.status()[0] == "starting":
         assert time.monotonic() < deadline and not job.done()
         time.sleep(0.001)
-    nice = int(open("/proc/%d/stat" % job.proc.pid).read().rsplit(")", 1)[1].split()[16])
+    fields = open("/proc/%d/stat" % job.proc.pid).read().rsplit(")", 1)[1].split()
+    nice, policy = int(fields[16]), int(fields[38])  # proc(5): fields 19 and 41
     job.wait(120)
     assert nice == 19 and job.result is not None
+    assert policy == os.SCHED_IDLE  # Blender's drawing threads preempt it at once
 
 
 @pytest.mark.parametrize("when", ["reading", "specular"])

@@ -317,12 +317,37 @@ class BakeProcess:
 
 
 # -- the child side ------------------------------------------------------------------
-def child_main(tmp: str):
-    """The child process: nice, then the Work of tmp/job.json; its outcome in tmp/result.json."""
+def lower_priority(all_threads=False):
+    """This thread (and the threads it starts) at nice 19 and, where the
+    kernel has it, in SCHED_IDLE: nice alone still lets a bake thread finish
+    its time slice when one of Blender's wakes, and Blender's drawing (on a
+    software OpenGL, threads that wake and wait on each other many times a
+    frame) took half as long again while an 8K image baked; SCHED_IDLE
+    yields the core at once. Either is only a priority: an idle machine's
+    cores are all the bake's. all_threads: every thread the process has
+    already (a child Blender's), not only this one."""
     try:
-        os.nice(NICE)  # before any thread exists: TBB's and OpenEXR's threads inherit it
+        os.nice(NICE)
     except OSError:
         pass
+    if not (hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_IDLE")):
+        return
+    tids = [0]
+    if all_threads:
+        try:
+            tids = [int(t) for t in os.listdir("/proc/self/task")]
+        except OSError:
+            pass
+    for tid in tids:
+        try:
+            os.sched_setscheduler(tid, os.SCHED_IDLE, os.sched_param(0))
+        except OSError:
+            pass
+
+
+def child_main(tmp: str):
+    """The child process: nice, then the Work of tmp/job.json; its outcome in tmp/result.json."""
+    lower_priority()  # before any thread exists: TBB's and OpenEXR's threads inherit it
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C in Blender's terminal is Blender's
     with open(os.path.join(tmp, "job.json")) as f:
         job = json.load(f)
