@@ -2,7 +2,7 @@
 // compute_bake_stream over bands of rows gives compute_bake's result to the
 // bit, whatever the band height, the thread count or the source's oddities;
 // it refuses the options that need the whole source, hands back nothing for
-// sources the overflow guard must scale, and bake_file streams EXR files.
+// sources the overflow guard must scale, and bake_file streams EXR, HDR and PFM files.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -23,6 +23,7 @@
 #include "iblbake/pipeline/plan.h"
 #include "iblbake/pipeline/write.h"
 #include "reference.h"
+#include "test_files.h"
 
 using namespace iblbake;
 namespace fs = std::filesystem;
@@ -275,27 +276,42 @@ TEST(StreamedBake, StateBytes) {
     EXPECT_GT(stream_state_bytes(BakeOptions()), 12.0 * 1024 * 512);   // a 1K source is read whole
 }
 
-TEST(StreamedBake, BakeFileStreamsExrFiles) {
-    const fs::path dir = fs::temp_directory_path() / ("iblbake_test_stream_" + std::to_string(::getpid()));
+// bake_file streams EXR, Radiance HDR and PFM files (the last two through
+// OpenImageIO's plugin, when the build has it): the files it writes are the
+// whole-image path's.
+class BakeFileStreams : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(BakeFileStreams, WritesTheWholeImagePathsFiles) {
+    const std::string ext = GetParam();
+    if (ext != "exr" && !io::reads_format(ext == "hdr" ? "hdr" : "pnm")) GTEST_SKIP() << "no OpenImageIO plugin";
+    const fs::path dir = fs::temp_directory_path() / ("iblbake_test_stream_" + ext + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
     Image src = ref::sun_source(1024, 512, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f);
-    src.at(100, 100)[0] = std::numeric_limits<float>::quiet_NaN();
-    io::write_exr((dir / "s.exr").string(), src, io::ExrPixel::Float);
+    const std::string path = (dir / ("s." + ext)).string();
+    if (ext == "exr") {
+        src.at(100, 100)[0] = std::numeric_limits<float>::quiet_NaN();
+        io::write_exr(path, src, io::ExrPixel::Float);
+    } else if (ext == "hdr") {
+        testfiles::write_radiance(path, src, "-Y 512 +X 1024");
+    } else {
+        src.at(100, 100)[0] = std::numeric_limits<float>::quiet_NaN();
+        testfiles::write_pfm(path, src);
+    }
     WriteOptions wo;
     wo.png = true;
     const BakeOptions o = small_options();
-    const nlohmann::json m = bake_file((dir / "s.exr").string(), dir / "streamed", make_plan(o, wo));
+    const nlohmann::json m = bake_file(path, dir / "streamed", make_plan(o, wo));
     bool has_sanitize = false;
     for (const auto& t : m["timings"].items()) has_sanitize = has_sanitize || t.key() == "sanitize";
     EXPECT_TRUE(m["timings"].contains("read"));
-    EXPECT_FALSE(has_sanitize) << m["timings"].dump();
-    EXPECT_EQ(m["bad_input"]["nan"], 1);
+    EXPECT_FALSE(has_sanitize) << m["timings"].dump();  // the whole-image path's stage: not run
+    EXPECT_EQ(m["bad_input"]["nan"], ext == "hdr" ? 0 : 1);
     // The same files as the whole-image path's: compute_bake of the image the file holds, through the same writer.
     {
         const BakePlan plan = make_plan(o, wo);
         BakeWriter writer(dir / "whole", plan);
-        const BakeResult r = compute_bake(io::read_image((dir / "s.exr").string()).image, plan.bake, {}, nullptr, &writer);
+        const BakeResult r = compute_bake(io::read_image(path).image, plan.bake, {}, nullptr, &writer);
         SourceInfo info;
         info.width = src.width, info.height = src.height;
         writer.finish(r, info);
@@ -308,3 +324,5 @@ TEST(StreamedBake, BakeFileStreamsExrFiles) {
     }
     fs::remove_all(dir);
 }
+
+INSTANTIATE_TEST_SUITE_P(StreamedBake, BakeFileStreams, ::testing::Values("exr", "hdr", "pfm"));

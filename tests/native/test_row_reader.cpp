@@ -1,6 +1,7 @@
-// io::ExrRowReader (issue 28's streaming bake, docs/design-streaming.md):
-// the rows it hands out, in bands of any height and in any order, are
-// read_image()'s image value for value, with its size and warnings.
+// io::ExrRowReader and io::open_rows (issue 28's streaming bake,
+// docs/design-streaming.md): the rows they hand out, in bands of any height
+// and in any order, are read_image()'s image value for value, with its size
+// and warnings; what streams and what is read whole.
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -33,6 +34,8 @@
 #include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/ibl/specular.h"
+#include "reference.h"
+#include "test_files.h"
 
 namespace fs = std::filesystem;
 using namespace iblbake;
@@ -110,7 +113,7 @@ std::string write_file(const std::string& name, const Layout& l) {
 }
 
 // Every row, read in bands of `band` rows (last band first when `backwards`).
-std::vector<float> read_in_bands(io::ExrRowReader& r, int band, bool backwards) {
+std::vector<float> read_in_bands(io::RowReader& r, int band, bool backwards) {
     std::vector<float> all(size_t(r.width()) * r.height() * 3, -1.0f);
     std::vector<int> starts;
     for (int y = 0; y < r.height(); y += band) starts.push_back(y);
@@ -374,4 +377,91 @@ TEST(StreamingPass, FromEnvironment) {
     Cubemap wm(face);
     specular_mirror(wm, whole.image);
     EXPECT_EQ(0, std::memcmp(wm.pixels.data(), mip0.pixels.data(), wm.pixels.size() * sizeof(float)));
+}
+
+// Radiance HDR and PFM, read by OpenImageIO's plugin scanline by scanline:
+// the rows are read_image()'s, in bands of any height and in any order.
+TEST(RowReader, PluginFormatsAreReadImagesRows) {
+    if (!io::reads_format("hdr")) GTEST_SKIP() << "this build has no OpenImageIO plugin";
+    const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_plugin_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    Image img = ref::random_smooth_source(160, 80, 5);
+    img.at(10, 10)[0] = 3e4f;  // a bright texel: the shared exponent keeps its hue
+    const std::string hdr = (dir / "s.hdr").string(), pfm = (dir / "s.pfm").string();
+    testfiles::write_radiance(hdr, img, "-Y 80 +X 160");
+    testfiles::write_pfm(pfm, img);
+    for (const std::string& path : {hdr, pfm}) {
+        const io::LoadedImage whole = io::read_image(path);
+        std::unique_ptr<io::RowReader> r = io::open_rows(path);
+        ASSERT_TRUE(r) << path;
+        ASSERT_EQ(r->width(), whole.image.width);
+        ASSERT_EQ(r->height(), whole.image.height);
+        EXPECT_EQ(r->warnings(), whole.warnings);
+        EXPECT_EQ(r->linearised(), whole.linearised);
+        EXPECT_GE(r->preferred_band(), 16);
+        for (int band : {1, 7, 80, r->preferred_band()})
+            for (bool backwards : {false, true}) {
+                const std::vector<float> rows = read_in_bands(*r, band, backwards);
+                ASSERT_EQ(rows.size(), whole.image.pixels.size());
+                EXPECT_EQ(0, std::memcmp(rows.data(), whole.image.pixels.data(), rows.size() * sizeof(float)))
+                    << path << ": bands of " << band << (backwards ? ", last first" : "");
+            }
+        std::vector<float> out(size_t(r->width()) * 3 * 2);
+        EXPECT_THROW(r->read(79, 2, out.data()), std::out_of_range);
+    }
+    // The values came through: the PFM's floats exactly, the HDR's within RGBE's 8-bit
+    // mantissa (a step of 1/128 of the texel's largest channel at most).
+    const io::LoadedImage p = io::read_image(pfm), h = io::read_image(hdr);
+    EXPECT_EQ(0, std::memcmp(p.image.pixels.data(), img.pixels.data(), img.pixels.size() * sizeof(float)));
+    for (size_t t = 0; t < img.pixels.size() / 3; t += 31) {
+        const float* v = &img.pixels[t * 3];
+        const float step = std::max({v[0], v[1], v[2]}) / 128.0f;
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(h.image.pixels[t * 3 + c], v[c], step) << "texel " << t;
+    }
+    fs::remove_all(dir);
+}
+
+// What is read whole: PNG and JPEG (libpng and libjpeg read them in one
+// go), a Radiance file stored in another order (turned as it is read). A
+// file that cannot be read gets read_image's error before any pixel.
+TEST(RowReader, WhatIsReadWholeAndWhatIsRefused) {
+    const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_whole_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const Image img = ref::random_smooth_source(64, 32, 2);
+    io::write_png8((dir / "s.png").string(), 64, 32, 3, {img.pixels.data(), img.pixels.size()});
+    EXPECT_FALSE(io::open_rows((dir / "s.png").string()));
+    try {
+        io::open_rows((dir / "none.exr").string());
+        ADD_FAILURE() << "a missing file was opened";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("cannot read '"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("no such file"), std::string::npos) << e.what();
+    }
+    if (io::reads_format("hdr")) {
+        const std::string turned = (dir / "turned.hdr").string();
+        testfiles::write_radiance(turned, img, "+Y 32 +X 64");  // bottom row first
+        EXPECT_FALSE(io::open_rows(turned));
+        EXPECT_EQ(io::read_image(turned).image.width, 64);
+        // Cut in the middle of its pixels: the header opens, the rows past the cut fail with the file's name.
+        const std::string cut = (dir / "cut.hdr").string();
+        testfiles::write_radiance(cut, img, "-Y 32 +X 64");
+        fs::resize_file(cut, fs::file_size(cut) - 64 * 4 * 20);
+        std::unique_ptr<io::RowReader> r;
+        try {
+            r = io::open_rows(cut);
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("cannot read '"), std::string::npos) << e.what();
+        }
+        if (r) {
+            std::vector<float> out(size_t(64) * 32 * 3);
+            try {
+                r->read(0, 32, out.data());
+                ADD_FAILURE() << "a cut file read to its end";
+            } catch (const std::runtime_error& e) {
+                EXPECT_NE(std::string(e.what()).find("cannot read '" + cut), std::string::npos) << e.what();
+            }
+        }
+        EXPECT_THROW(io::read_image(cut), std::runtime_error);
+    }
+    fs::remove_all(dir);
 }

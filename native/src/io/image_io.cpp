@@ -17,6 +17,7 @@
 #include <system_error>
 #include <utility>
 
+#include "iblbake/io/row_reader.h"
 #include "iblbake/io/text.h"
 #include "iblbake/math/color.h"
 #include "raw_pixels.h"
@@ -42,6 +43,10 @@ std::string size_text(int64_t w, int64_t h) { return std::to_string(w) + " x " +
 struct Plugin {
     detail::IblbakeOiioRead read = nullptr;
     detail::IblbakeOiioFree release = nullptr;
+    // Row by row (null in a plugin older than the streaming bake: files are read whole then).
+    detail::IblbakeOiioOpenRows open_rows = nullptr;
+    detail::IblbakeOiioReadRows read_rows = nullptr;
+    detail::IblbakeOiioCloseRows close_rows = nullptr;
     std::string error;
 };
 
@@ -68,7 +73,13 @@ const Plugin& plugin() {
             }
             p.read = reinterpret_cast<detail::IblbakeOiioRead>(dlsym(h, "iblbake_oiio_read_v2"));
             p.release = reinterpret_cast<detail::IblbakeOiioFree>(dlsym(h, "iblbake_oiio_free"));
-            if (p.read && p.release) return;
+            if (p.read && p.release) {
+                p.open_rows = reinterpret_cast<detail::IblbakeOiioOpenRows>(dlsym(h, "iblbake_oiio_open_rows_v3"));
+                p.read_rows = reinterpret_cast<detail::IblbakeOiioReadRows>(dlsym(h, "iblbake_oiio_read_rows_v3"));
+                p.close_rows = reinterpret_cast<detail::IblbakeOiioCloseRows>(dlsym(h, "iblbake_oiio_close_rows_v3"));
+                if (!p.open_rows || !p.read_rows || !p.close_rows) p.open_rows = nullptr;
+                return;
+            }
             p.error = c + " is not iblbake's OpenImageIO plugin";
         }
         if (p.error.empty())
@@ -79,13 +90,18 @@ const Plugin& plugin() {
     return p;
 }
 
+// The most floats the plugin may allocate for a file of `file_size` bytes.
+long long plugin_max_values(uintmax_t file_size) {
+    return (long long)std::min<uintmax_t>(uintmax_t(kMaxSourcePixels) * 4,
+                                          std::max<uintmax_t>(file_size, 1) * (kMaxExpansion / sizeof(float)));
+}
+
 RawPixels read_with_plugin(const std::string& path, const std::string& format, uintmax_t file_size) {
     const Plugin& p = plugin();
     if (!p.read) detail::fail_reading(path, p.error);
     detail::IblbakeOiioImage img{};
     char error[512] = {0};
-    const long long max_values = (long long)std::min<uintmax_t>(
-        uintmax_t(kMaxSourcePixels) * 4, std::max<uintmax_t>(file_size, 1) * (kMaxExpansion / sizeof(float)));
+    const long long max_values = plugin_max_values(file_size);
     const int rc = p.read(path.c_str(), format.c_str(), kMaxSourceSide, max_values, &img, error, sizeof(error));
     if (rc == 2) detail::check_declared(img.width, img.height, img.channels, file_size);  // throws
     if (rc != 1) detail::fail_reading(path, error);
@@ -104,6 +120,48 @@ RawPixels read_with_plugin(const std::string& path, const std::string& format, u
     raw.data.assign(img.data, img.data + size_t(img.width) * img.height * img.channels);
     p.release(img.data);
     return raw;
+}
+
+// How a file's channels become a texel's linear RGB: the same for every reader.
+struct ColourRule {
+    int channels = 3;
+    int colour[3] = {0, 1, 2};  // RGB if there are three non-alpha channels, else grey
+    int alpha = -1;             // a straight alpha that multiplies the colour, or -1
+    bool linearised = false;    // integer values decoded from sRGB
+
+    bool identity() const {
+        return channels == 3 && colour[0] == 0 && colour[1] == 1 && colour[2] == 2 && alpha < 0 && !linearised;
+    }
+    // `texels` texels of `channels` floats from `in` to RGB in `out`.
+    void apply(const float* in, size_t texels, float* out) const {
+        for (size_t p = 0; p < texels; ++p)
+            for (int k = 0; k < 3; ++k) {
+                float v = in[p * channels + colour[k]];
+                if (alpha >= 0) v *= in[p * channels + alpha];
+                if (linearised) v = srgb_to_linear(v);
+                out[p * 3 + k] = v;
+            }
+    }
+};
+
+// The rule of a file's header (its pixels are not looked at); what it chose in `warnings`.
+ColourRule colour_rule(const RawPixels& r, std::vector<std::string>& warnings) {
+    ColourRule rule;
+    rule.channels = r.channels;
+    rule.linearised = !r.is_float && r.colorspace != "linear" && r.colorspace != "Linear";
+    std::vector<int> colour;
+    for (int c = 0; c < r.channels && colour.size() < 3; ++c)
+        if (c != r.alpha_channel) colour.push_back(c);
+    if (colour.empty()) colour.push_back(0);
+    if (colour.size() == 2)
+        warnings.push_back("the file has 2 colour channels, neither grey nor RGB: baked as grey from the first");
+    if (colour.size() < 3) colour.assign(3, colour[0]);
+    std::copy(colour.begin(), colour.end(), rule.colour);
+    // A world's texel is what Cycles shows: a straight alpha multiplies the
+    // colour as stored (before an sRGB decode, as Cycles does for 8-bit
+    // images); premultiplied colour (EXR, OpenImageIO's formats) is kept.
+    if (r.straight_alpha && r.alpha_channel >= 0 && r.alpha_channel < r.channels) rule.alpha = r.alpha_channel;
+    return rule;
 }
 
 // Display window, colour channels, sRGB decode: the same for every reader.
@@ -149,34 +207,17 @@ LoadedImage finish(RawPixels&& r) {
     }
     out.source_channels = nch;
     out.format = r.format;
-    out.linearised = !r.is_float && r.colorspace != "linear" && r.colorspace != "Linear";
-    // Colour channels: RGB if there are three non-alpha channels, else grey.
-    std::vector<int> colour;
-    for (int c = 0; c < nch && colour.size() < 3; ++c)
-        if (c != r.alpha_channel) colour.push_back(c);
-    if (colour.empty()) colour.push_back(0);
-    if (colour.size() == 2)
-        out.warnings.push_back("the file has 2 colour channels, neither grey nor RGB: baked as grey from the first");
-    if (colour.size() < 3) colour.assign(3, colour[0]);
-    if (nch == 3 && colour == std::vector<int>{0, 1, 2} && !out.linearised) {
+    const ColourRule rule = colour_rule(r, out.warnings);
+    out.linearised = rule.linearised;
+    if (rule.identity()) {
         // Linear RGB already in Image's layout (an EXR's R, G, B): kept, not copied.
         out.image.width = w;
         out.image.height = h;
         out.image.pixels = std::move(raw);
         return out;
     }
-    // A world's texel is what Cycles shows: a straight alpha multiplies the
-    // colour as stored (before an sRGB decode, as Cycles does for 8-bit
-    // images); premultiplied colour (EXR, OpenImageIO's formats) is kept.
-    const bool by_alpha = r.straight_alpha && r.alpha_channel >= 0 && r.alpha_channel < nch;
     out.image = Image(w, h);
-    for (size_t p = 0; p < size_t(w) * h; ++p)
-        for (int k = 0; k < 3; ++k) {
-            float v = raw[p * nch + colour[k]];
-            if (by_alpha) v *= raw[p * nch + r.alpha_channel];
-            if (out.linearised) v = srgb_to_linear(v);
-            out.image.pixels[p * 3 + k] = v;
-        }
+    rule.apply(raw.data(), size_t(w) * h, out.image.pixels.data());
     return out;
 }
 
@@ -288,7 +329,10 @@ void detail::check_declared(int64_t width, int64_t height, int channels, uintmax
                                  std::to_string(file_size) + " bytes: truncated or damaged");
 }
 
-LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
+namespace {
+// The format of the file at `path` and its size, after the checks every
+// read makes first; throws read_image's error for what it refuses.
+std::string checked_format(const std::string& path, uintmax_t& size) {
     namespace fs = std::filesystem;
     std::error_code ec;
     // stat() before open(): a FIFO would block the open, a device never ends.
@@ -304,7 +348,7 @@ LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
                                                                    : "not a file";
         detail::fail_reading(path, std::string("is not a regular file (") + kind + ")");
     }
-    const uintmax_t size = fs::file_size(path, ec);
+    size = fs::file_size(path, ec);
     if (ec) detail::fail_reading(path, ec.message());
     if (size == 0) detail::fail_reading(path, "file is empty");
     std::string format;
@@ -324,6 +368,88 @@ LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
             detail::fail_reading(path, "a DDS texture (a GPU container, as iblbake's own exports are), not a lat-long source: "
                        "bake from the EXR or HDR it was made from");
     }
+    return format;
+}
+
+// A file OpenImageIO's plugin reads by scanlines, as linear RGB rows.
+class PluginRowReader final : public RowReader {
+public:
+    PluginRowReader(const Plugin& p, void* handle, const detail::IblbakeOiioImage& header, std::string path)
+        : plugin_(p), handle_(handle), path_(std::move(path)), width_(header.width), height_(header.height) {
+        RawPixels r;
+        r.width = header.width;
+        r.height = header.height;
+        r.channels = header.channels;
+        r.alpha_channel = header.alpha_channel;
+        r.is_float = header.is_float != 0;
+        r.colorspace = header.colorspace;
+        rule_ = colour_rule(r, warnings_);
+    }
+    ~PluginRowReader() override { plugin_.close_rows(handle_); }
+    PluginRowReader(const PluginRowReader&) = delete;
+    PluginRowReader& operator=(const PluginRowReader&) = delete;
+
+    int width() const override { return width_; }
+    int height() const override { return height_; }
+    const std::vector<std::string>& warnings() const override { return warnings_; }
+    bool linearised() const override { return rule_.linearised; }
+    // A few megabytes of floats a band: the decoders read scanline after scanline.
+    int preferred_band() const override { return std::clamp(int((1 << 20) / std::max(width_, 1)), 16, 256); }
+    void read(int y0, int rows, float* out) override {
+        if (y0 < 0 || rows < 0 || y0 + rows > height_) throw std::out_of_range("rows outside the image");
+        if (rows == 0) return;
+        float* dst = out;
+        if (!rule_.identity()) {
+            scratch_.resize(size_t(rows) * width_ * rule_.channels);
+            dst = scratch_.data();
+        }
+        char error[512] = {0};
+        if (plugin_.read_rows(handle_, y0, rows, dst, error, sizeof(error)) != 1) detail::fail_reading(path_, error);
+        if (dst != out) rule_.apply(dst, size_t(rows) * width_, out);
+    }
+private:
+    const Plugin& plugin_;
+    void* handle_;
+    std::string path_;
+    int width_ = 0, height_ = 0;
+    ColourRule rule_;
+    std::vector<std::string> warnings_;
+    std::vector<float> scratch_;
+};
+}  // namespace
+
+std::unique_ptr<RowReader> open_rows(const std::string& path) {
+    uintmax_t size = 0;
+    const std::string format = checked_format(path, size);
+    if (format == "openexr") return std::make_unique<ExrRowReader>(path);
+    if (format == "png" || format == "jpeg") return nullptr;
+    const Plugin& p = plugin();
+    if (!p.open_rows) return nullptr;  // read_image says why it cannot read it, or reads it whole
+    try {
+        if (format == "tiff") detail::check_tiff_complete(path, size);
+        detail::IblbakeOiioImage header{};
+        char error[512] = {0};
+        int rc = 0;
+        void* handle = p.open_rows(path.c_str(), format.c_str(), kMaxSourceSide, plugin_max_values(size), &header,
+                                   &rc, error, sizeof(error));
+        if (rc == 2) detail::check_declared(header.width, header.height, header.channels, size);  // throws
+        if (rc == 3) return nullptr;
+        if (!handle) detail::fail_reading(path, error);
+        auto reader = std::make_unique<PluginRowReader>(p, handle, header, path);  // closes the handle from here on
+        check_source_size(header.width, header.height);
+        detail::check_declared(header.width, header.height, header.channels, size);
+        return reader;
+    } catch (const std::bad_alloc&) {
+        detail::fail_reading(path, "out of memory while reading");
+    } catch (const std::runtime_error& e) {
+        if (std::string(e.what()).rfind("cannot read '", 0) == 0) throw;  // already names the file
+        detail::fail_reading(path, e.what());
+    }
+}
+
+LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
+    uintmax_t size = 0;
+    const std::string format = checked_format(path, size);
     try {
         if (format == "openexr") return finish(detail::read_exr(path, size, progress));
         if (format == "png") return finish(detail::read_png(path, size, progress));

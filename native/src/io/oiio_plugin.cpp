@@ -4,6 +4,8 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <memory>
+#include <new>
 #include <string>
 
 #include "raw_pixels.h"
@@ -72,19 +74,19 @@ int radiance_orientation(const char* path) {
     return orientation;
 }
 
-// Only the reader of `format` is tried: OpenImageIO's ImageInput::open(path)
-// would try every reader it has on a file none of them takes (a gigabyte of
-// zeros kept it busy for minutes).
-extern "C" __attribute__((visibility("default"))) int iblbake_oiio_read_v2(const char* path, const char* format,
-                                                                           long long max_side, long long max_values,
-                                                                           IblbakeOiioImage* out, char* error,
-                                                                           int error_size) {
-    auto in = OIIO::ImageInput::create(format);
-    if (!in) {
+namespace {
+// Opens `path` with the reader of `format` and checks its first image's
+// size: 1 (in, spec set), 0 (error set) or 2 (declared size beyond the
+// limits; out's width, height, channels set).
+int open_checked(const char* path, const char* format, long long max_side, long long max_values,
+                 std::unique_ptr<OIIO::ImageInput>& in, OIIO::ImageSpec& spec, IblbakeOiioImage* out, char* error,
+                 int error_size) {
+    auto made = OIIO::ImageInput::create(format);
+    if (!made) {
         copy_text(error, error_size, "no OpenImageIO reader for format '" + std::string(format) + "'");
         return 0;
     }
-    OIIO::ImageSpec spec;
+    in.reset(made.release());
     if (!in->open(path, spec)) {
         std::string why = in->geterror();
         if (why.empty()) why = "not a readable " + std::string(format) + " file";
@@ -101,6 +103,96 @@ extern "C" __attribute__((visibility("default"))) int iblbake_oiio_read_v2(const
     if (spec.width > max_side || spec.height > max_side ||
         (long long)spec.width * spec.height * spec.nchannels > max_values)
         return 2;
+    return 1;
+}
+
+// What the file says of its pixels besides their size (the caller's header).
+void describe(const OIIO::ImageSpec& spec, const OIIO::ImageInput& in, IblbakeOiioImage* out) {
+    out->channels = spec.nchannels;
+    out->alpha_channel = spec.alpha_channel;
+    out->is_float = spec.format.is_floating_point() ? 1 : 0;
+    copy_text(out->colorspace, sizeof(out->colorspace), spec.get_string_attribute("oiio:ColorSpace"));
+    copy_text(out->format, sizeof(out->format), in.format_name());
+}
+
+// The file's Orientation (EXIF's numbers: 1 to 8 are defined).
+int orientation_of(const char* path, const char* format, const OIIO::ImageSpec& spec) {
+    const int from_hdr = std::strcmp(format, "hdr") == 0 ? radiance_orientation(path) : 0;
+    return from_hdr ? from_hdr : spec.get_int_attribute("Orientation", 1);
+}
+
+struct RowHandle {
+    std::unique_ptr<OIIO::ImageInput> in;
+    int width = 0, height = 0, channels = 0;
+};
+}  // namespace
+
+// The streaming bake's reader: the file opened, its header in `out` (data
+// null), rows read by iblbake_oiio_read_rows_v3. Returns null with *rc 0
+// (error set), 2 (declared size beyond the limits) or 3 (the file is read
+// whole only: it is turned by its Orientation, or its data window is not
+// its display window).
+extern "C" __attribute__((visibility("default"))) void* iblbake_oiio_open_rows_v3(
+    const char* path, const char* format, long long max_side, long long max_values, IblbakeOiioImage* out, int* rc,
+    char* error, int error_size) {
+    std::unique_ptr<OIIO::ImageInput> in;
+    OIIO::ImageSpec spec;
+    *rc = open_checked(path, format, max_side, max_values, in, spec, out, error, error_size);
+    if (*rc != 1) return nullptr;
+    const bool windowed = spec.x != 0 || spec.y != 0 || spec.full_x != 0 || spec.full_y != 0 ||
+                          (spec.full_width > 0 && spec.full_width != spec.width) ||
+                          (spec.full_height > 0 && spec.full_height != spec.height);
+    if (orientation_of(path, format, spec) != 1 || windowed) {
+        *rc = 3;
+        return nullptr;
+    }
+    describe(spec, *in, out);
+    out->full_width = out->full_height = out->x_offset = out->y_offset = 0;
+    out->data = nullptr;
+    auto* h = new (std::nothrow) RowHandle{std::move(in), spec.width, spec.height, spec.nchannels};
+    if (!h) {
+        copy_text(error, error_size, "out of memory");
+        *rc = 0;
+    }
+    return h;
+}
+
+// Rows y0 .. y0 + rows - 1 of the file's first image into out (rows x width
+// x channels floats, the file's channels): 1, or 0 with error set.
+extern "C" __attribute__((visibility("default"))) int iblbake_oiio_read_rows_v3(void* handle, int y0, int rows,
+                                                                               float* out, char* error,
+                                                                               int error_size) {
+    auto* h = static_cast<RowHandle*>(handle);
+    if (y0 < 0 || rows < 1 || y0 + rows > h->height) {
+        copy_text(error, error_size, "rows outside the image");
+        return 0;
+    }
+    if (!h->in->read_scanlines(0, 0, y0, y0 + rows, 0, 0, h->channels, OIIO::TypeDesc::FLOAT, out)) {
+        std::string why = h->in->geterror();
+        if (why.empty()) why = "the pixels cannot be decoded";
+        copy_text(error, error_size, why);
+        return 0;
+    }
+    return 1;
+}
+
+extern "C" __attribute__((visibility("default"))) void iblbake_oiio_close_rows_v3(void* handle) {
+    auto* h = static_cast<RowHandle*>(handle);
+    if (h && h->in) h->in->close();
+    delete h;
+}
+
+// Only the reader of `format` is tried: OpenImageIO's ImageInput::open(path)
+// would try every reader it has on a file none of them takes (a gigabyte of
+// zeros kept it busy for minutes).
+extern "C" __attribute__((visibility("default"))) int iblbake_oiio_read_v2(const char* path, const char* format,
+                                                                           long long max_side, long long max_values,
+                                                                           IblbakeOiioImage* out, char* error,
+                                                                           int error_size) {
+    std::unique_ptr<OIIO::ImageInput> in;
+    OIIO::ImageSpec spec;
+    const int opened = open_checked(path, format, max_side, max_values, in, spec, out, error, error_size);
+    if (opened != 1) return opened;
     const size_t n = size_t(spec.width) * spec.height * spec.nchannels;
     float* data = static_cast<float*>(std::malloc(n * sizeof(float)));
     if (!data) {
@@ -114,8 +206,7 @@ extern "C" __attribute__((visibility("default"))) int iblbake_oiio_read_v2(const
         std::free(data);
         return 0;
     }
-    const int from_hdr = std::strcmp(format, "hdr") == 0 ? radiance_orientation(path) : 0;
-    const int orientation = from_hdr ? from_hdr : spec.get_int_attribute("Orientation", 1);
+    const int orientation = orientation_of(path, format, spec);
     if (orientation < 1 || orientation > 8) {
         copy_text(error, error_size, "its Orientation is " + std::to_string(orientation) + " (1 to 8 are defined)");
         std::free(data);
@@ -145,11 +236,7 @@ extern "C" __attribute__((visibility("default"))) int iblbake_oiio_read_v2(const
     out->x_offset = sane ? int(ox) : 0;
     out->y_offset = sane ? int(oy) : 0;
     if (!sane) out->full_width = out->full_height = 0;
-    out->channels = spec.nchannels;
-    out->alpha_channel = spec.alpha_channel;
-    out->is_float = spec.format.is_floating_point() ? 1 : 0;
-    copy_text(out->colorspace, sizeof(out->colorspace), spec.get_string_attribute("oiio:ColorSpace"));
-    copy_text(out->format, sizeof(out->format), in->format_name());
+    describe(spec, *in, out);
     out->data = data;
     in->close();
     return 1;

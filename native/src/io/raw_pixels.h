@@ -64,6 +64,14 @@ struct IblbakeOiioImage {
 typedef int (*IblbakeOiioRead)(const char* path, const char* format, long long max_side, long long max_values,
                                IblbakeOiioImage* out, char* error, int error_size);
 typedef void (*IblbakeOiioFree)(float* data);
+// Row by row (the streaming bake): open fills the header (data null) and
+// returns a handle, or null with *rc 0 (error set), 2 (declared size beyond
+// the limits) or 3 (read whole only: turned by its Orientation, or a data
+// window of its own); read_rows writes rows x width x channels floats.
+typedef void* (*IblbakeOiioOpenRows)(const char* path, const char* format, long long max_side, long long max_values,
+                                     IblbakeOiioImage* header, int* rc, char* error, int error_size);
+typedef int (*IblbakeOiioReadRows)(void* handle, int y0, int rows, float* out, char* error, int error_size);
+typedef void (*IblbakeOiioCloseRows)(void* handle);
 }
 
 }  // namespace iblbake::io::detail

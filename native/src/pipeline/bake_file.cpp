@@ -19,18 +19,18 @@ namespace iblbake {
 
 namespace {
 
-// An EXR file as the streamed bake's bands.
-class ExrRows final : public BandSource {
+// A file's rows (io::open_rows) as the streamed bake's bands.
+class FileRows final : public BandSource {
 public:
-    explicit ExrRows(const std::string& path) : reader_(path) {}
-    int width() const override { return reader_.width(); }
-    int height() const override { return reader_.height(); }
-    int preferred_band() const override { return reader_.preferred_band(); }
-    void read(int y0, int rows, float* out) override { reader_.read(y0, rows, out); }
-    const std::vector<std::string>& warnings() const { return reader_.warnings(); }
+    explicit FileRows(std::unique_ptr<io::RowReader> reader) : reader_(std::move(reader)) {}
+    int width() const override { return reader_->width(); }
+    int height() const override { return reader_->height(); }
+    int preferred_band() const override { return reader_->preferred_band(); }
+    void read(int y0, int rows, float* out) override { reader_->read(y0, rows, out); }
+    const io::RowReader& reader() const { return *reader_; }
 
 private:
-    io::ExrRowReader reader_;
+    std::unique_ptr<io::RowReader> reader_;
 };
 
 // Runs `work` on a task beside the caller's `main` (or after it, with one
@@ -99,27 +99,30 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     std::error_code ec;
     const bool regular = std::filesystem::is_regular_file(source_path, ec);  // the reader refuses the rest
     const bool one_thread = plan.bake.threads == 1 || !regular;
-    // An EXR file whose bake needs no whole source is decoded in bands and
+    // A file whose bake needs no whole source is decoded in bands and
     // reduced as it goes (issue 28): its memory does not grow with the file.
-    // (When its bins would not take more memory than the source's floats.)
-    std::unique_ptr<ExrRows> exr;
-    if (regular && whole_source_reason(plan.bake).empty() &&
-        io::image_format(source_path) == "openexr") {
-        exr = std::make_unique<ExrRows>(source_path);  // refuses what read_image refuses, before any pixel
-        if (stream_state_bytes(plan.bake) >= 12.0 * exr->width() * exr->height()) exr.reset();
+    // (EXR, and what OpenImageIO reads by scanlines, such as Radiance HDR;
+    // when its bins would not take more memory than the source's floats.)
+    std::unique_ptr<FileRows> streamed;
+    if (regular && whole_source_reason(plan.bake).empty()) {
+        if (auto reader = io::open_rows(source_path))  // refuses what read_image refuses, before any pixel
+            streamed = std::make_unique<FileRows>(std::move(reader));
+        if (streamed && stream_state_bytes(plan.bake) >= 12.0 * streamed->width() * streamed->height())
+            streamed.reset();
     }
-    if (exr) {
-        ExrRows& rows = *exr;
+    if (streamed) {
+        FileRows& rows = *streamed;
         src.width = rows.width();
         src.height = rows.height();
-        const BakeOptions o = with_reader_warnings(plan.bake, rows.warnings());
+        src.linearised = rows.reader().linearised();
+        const BakeOptions o = with_reader_warnings(plan.bake, rows.reader().warnings());
         writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
         std::optional<BakeResult> r;
         beside(plan.bake.threads == 1, [&] { src.sha256 = io::sha256_file(source_path); },
                [&] { r = compute_bake_stream(rows, o, monotone, lut_cache, writer.get()); });
         if (r) return writer->finish(*r, src);
         // Values of 2^64 and more: the overflow guard scales the whole source (nothing written yet).
-        exr.reset();
+        streamed.reset();
     }
     io::LoadedImage loaded;
     if (writer) {

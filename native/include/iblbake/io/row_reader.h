@@ -8,6 +8,33 @@
 
 namespace iblbake::io {
 
+// A source image as rows of linear RGB floats: row y of read(y, 1, out)
+// equals row y of read_image(path).image, value for value, with the same
+// width, height, warnings and linearised flag. Calls come one at a time.
+class RowReader {
+public:
+    virtual ~RowReader() = default;
+    virtual int width() const = 0;
+    virtual int height() const = 0;
+    virtual const std::vector<std::string>& warnings() const = 0;
+    // Values decoded from sRGB (read_image's LoadedImage::linearised).
+    virtual bool linearised() const { return false; }
+    // Rows per call that suit the decoder.
+    virtual int preferred_band() const = 0;
+    // Rows y0 .. y0 + rows - 1 (within 0..height-1) into out: rows x width x 3
+    // floats, row-major, RGB interleaved.
+    virtual void read(int y0, int rows, float* out) = 0;
+};
+
+// The file as rows when its format is decoded a band at a time: OpenEXR
+// (ExrRowReader) and what OpenImageIO's plugin reads by scanlines (Radiance
+// HDR, TIFF, PFM, ...). Null when it is read whole only: PNG and JPEG (read
+// by libpng and libjpeg in one go), an image turned by its Orientation or
+// with a data window of its own, or a build without the plugin. Throws
+// read_image's error ("cannot read '<path>': ...") for a file it cannot
+// read, before any pixel is decoded.
+std::unique_ptr<RowReader> open_rows(const std::string& path);
+
 // An OpenEXR file (scanline or tiled, single- or multi-part, RGB, a layer's
 // RGB, Y or some of R, G, B, luminance-chroma) as rows of linear RGB floats:
 // row y of read(y, 1, out) equals row y of read_image(path).image, value for
@@ -15,7 +42,7 @@ namespace iblbake::io {
 // padded or dropped as read_image does, grey from one channel). Rows may be
 // read in any order and more than once; each call decodes the file's blocks
 // that hold them (OpenEXR's thread pool decodes them in parallel).
-class ExrRowReader {
+class ExrRowReader final : public RowReader {
 public:
     // Throws std::runtime_error ("cannot read '<path>': ...") as read_image
     // does for a file it cannot read, before any pixel is decoded.
@@ -24,15 +51,15 @@ public:
     ExrRowReader(const ExrRowReader&) = delete;
     ExrRowReader& operator=(const ExrRowReader&) = delete;
 
-    int width() const;
-    int height() const;
-    const std::vector<std::string>& warnings() const;
+    int width() const override;
+    int height() const override;
+    const std::vector<std::string>& warnings() const override;
     // Rows per call that decode each compressed block once, with a block per
     // thread of OpenEXR's pool (a multiple of the tile height for tiled files).
-    int preferred_band() const;
+    int preferred_band() const override;
     // Rows y0 .. y0 + rows - 1 (within 0..height-1) into out: rows x width x 3
     // floats, row-major, RGB interleaved.
-    void read(int y0, int rows, float* out);
+    void read(int y0, int rows, float* out) override;
 
 private:
     struct Impl;
