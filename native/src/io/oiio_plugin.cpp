@@ -87,7 +87,12 @@ int open_checked(const char* path, const char* format, long long max_side, long 
         return 0;
     }
     in.reset(made.release());
-    if (!in->open(path, spec)) {
+    // PFM stores its rows bottom to top: OpenImageIO 2.5 and later turn them
+    // the right way up only when asked (an open without a configuration does
+    // not; 2.4 always did).
+    OIIO::ImageSpec config;
+    config.attribute("pnm:pfmflip", 1);
+    if (!in->open(path, spec, config)) {
         std::string why = in->geterror();
         if (why.empty()) why = "not a readable " + std::string(format) + " file";
         copy_text(error, error_size, why);
