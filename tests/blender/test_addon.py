@@ -174,13 +174,17 @@ def test_missing_image_file_is_a_clear_error_and_keeps_the_earlier_bake(case, tm
 
 
 def test_batch_over_blend_files_and_images(case, tmp_path):
+    import iblbake_core as ib
     _, work = case("save_blend")
     blend = str(work / "scene.blend")
     out = tmp_path / "batch"
-    p = bake_world("--batch", blend, FOREST, str(tmp_path / "missing.exr"), "--out", str(out),
+    square = str(tmp_path / "square.exr")  # not 2:1: a warning, listed per world as the CLI's batch lists it
+    ib.write_exr(square, np.full((32, 32, 3), 0.5, np.float32))
+    p = bake_world("--batch", blend, FOREST, str(tmp_path / "missing.exr"), square, "--out", str(out),
                    "--face-size", "16", "--lut-size", "16")
     assert p.returncode == 1, p.stdout + p.stderr
     assert "missing.exr" in p.stderr
+    assert "warning: square: the source is 32 x 32, not 2:1" in p.stdout, p.stdout
     assert manifest(out / "scene")["blender"]["strength"] == 2.0
     assert manifest(out / "forest")["blender"]["image"]["name"] == "forest.exr"
     assert not (out / "missing").exists()
@@ -188,7 +192,9 @@ def test_batch_over_blend_files_and_images(case, tmp_path):
     with open(out / "index.json") as f:
         idx = json.load(f)
     assert [(w["name"], w["status"]) for w in idx["worlds"]] == [
-        ("scene", "baked"), ("forest", "baked"), ("missing", "failed")]
+        ("scene", "baked"), ("forest", "baked"), ("missing", "failed"), ("square", "baked")]
+    assert [len(w["warnings"]) for w in idx["worlds"]] == [0, 0, 0, 1], idx["worlds"]
+    assert "not 2:1" in idx["worlds"][3]["warnings"][0]
     assert idx["worlds"][1]["content_hash"] == manifest(out / "forest")["blender"]["content_hash"]
     assert "no image file at" in idx["worlds"][2]["error"]
     assert (out / "forest" / "preview.png").is_file() and 'src="forest/preview.png"' in (out / "index.html").read_text()
