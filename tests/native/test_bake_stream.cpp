@@ -2,7 +2,7 @@
 // compute_bake_stream over bands of rows gives compute_bake's result to the
 // bit, whatever the band height, the thread count or the source's oddities;
 // it refuses the options that need the whole source, hands back nothing for
-// sources the overflow guard must scale, and bake_file streams EXR, HDR and PFM files.
+// sources the overflow guard must scale, and bake_file streams EXR, HDR, PFM, PNG and JPEG files.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -276,14 +276,15 @@ TEST(StreamedBake, StateBytes) {
     EXPECT_GT(stream_state_bytes(BakeOptions()), 12.0 * 1024 * 512);   // a 1K source is read whole
 }
 
-// bake_file streams EXR, Radiance HDR and PFM files (the last two through
-// OpenImageIO's plugin, when the build has it): the files it writes are the
+// bake_file streams EXR, Radiance HDR, PFM (through OpenImageIO's plugin,
+// when the build has it), PNG and JPEG files: the files it writes are the
 // whole-image path's.
 class BakeFileStreams : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(BakeFileStreams, WritesTheWholeImagePathsFiles) {
     const std::string ext = GetParam();
-    if (ext != "exr" && !io::reads_format(ext == "hdr" ? "hdr" : "pnm")) GTEST_SKIP() << "no OpenImageIO plugin";
+    if ((ext == "hdr" || ext == "pfm") && !io::reads_format(ext == "hdr" ? "hdr" : "pnm"))
+        GTEST_SKIP() << "no OpenImageIO plugin";
     const fs::path dir = fs::temp_directory_path() / ("iblbake_test_stream_" + ext + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
@@ -294,6 +295,10 @@ TEST_P(BakeFileStreams, WritesTheWholeImagePathsFiles) {
         io::write_exr(path, src, io::ExrPixel::Float);
     } else if (ext == "hdr") {
         testfiles::write_radiance(path, src, "-Y 512 +X 1024");
+    } else if (ext == "png") {  // 8-bit sRGB: the values clamped to 1, decoded as read_image decodes them
+        io::write_png8(path, src.width, src.height, 3, {src.pixels.data(), src.pixels.size()});
+    } else if (ext == "jpg") {
+        testfiles::write_jpeg(path, src);
     } else {
         src.at(100, 100)[0] = std::numeric_limits<float>::quiet_NaN();
         testfiles::write_pfm(path, src);
@@ -306,7 +311,8 @@ TEST_P(BakeFileStreams, WritesTheWholeImagePathsFiles) {
     for (const auto& t : m["timings"].items()) has_sanitize = has_sanitize || t.key() == "sanitize";
     EXPECT_TRUE(m["timings"].contains("read"));
     EXPECT_FALSE(has_sanitize) << m["timings"].dump();  // the whole-image path's stage: not run
-    EXPECT_EQ(m["bad_input"]["nan"], ext == "hdr" ? 0 : 1);
+    EXPECT_EQ(m["bad_input"]["nan"], ext == "exr" || ext == "pfm" ? 1 : 0);
+    EXPECT_EQ(m["source"]["linearised_from_srgb"], ext == "png" || ext == "jpg") << m["source"].dump();
     // The same files as the whole-image path's: compute_bake of the image the file holds, through the same writer.
     {
         const BakePlan plan = make_plan(o, wo);
@@ -325,4 +331,4 @@ TEST_P(BakeFileStreams, WritesTheWholeImagePathsFiles) {
     fs::remove_all(dir);
 }
 
-INSTANTIATE_TEST_SUITE_P(StreamedBake, BakeFileStreams, ::testing::Values("exr", "hdr", "pfm"));
+INSTANTIATE_TEST_SUITE_P(StreamedBake, BakeFileStreams, ::testing::Values("exr", "hdr", "pfm", "png", "jpg"));

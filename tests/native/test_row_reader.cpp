@@ -379,25 +379,44 @@ TEST(StreamingPass, FromEnvironment) {
     EXPECT_EQ(0, std::memcmp(wm.pixels.data(), mip0.pixels.data(), wm.pixels.size() * sizeof(float)));
 }
 
-// Radiance HDR and PFM, read by OpenImageIO's plugin scanline by scanline:
-// the rows are read_image()'s, in bands of any height and in any order.
-TEST(RowReader, PluginFormatsAreReadImagesRows) {
-    if (!io::reads_format("hdr")) GTEST_SKIP() << "this build has no OpenImageIO plugin";
-    const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_plugin_" + std::to_string(::getpid()));
+// PNG (8-bit RGB, RGBA with its straight alpha, 16-bit linear grey), JPEG
+// (RGB, grey), and, through OpenImageIO's plugin scanline by scanline,
+// Radiance HDR and PFM: the rows are read_image()'s, in bands of any height
+// and in any order, with its warnings and its sRGB decode.
+TEST(RowReader, FormatsAreReadImagesRows) {
+    const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_formats_" + std::to_string(::getpid()));
     fs::create_directories(dir);
     Image img = ref::random_smooth_source(160, 80, 5);
-    img.at(10, 10)[0] = 3e4f;  // a bright texel: the shared exponent keeps its hue
-    const std::string hdr = (dir / "s.hdr").string(), pfm = (dir / "s.pfm").string();
-    testfiles::write_radiance(hdr, img, "-Y 80 +X 160");
-    testfiles::write_pfm(pfm, img);
-    for (const std::string& path : {hdr, pfm}) {
+    for (float& v : img.pixels) v = std::min(v * 0.3f, 1.0f);  // the 8-bit formats' range
+    img.at(10, 10)[0] = 3e4f;  // a bright texel (the float formats keep it)
+    std::vector<float> rgba(size_t(160) * 80 * 4), grey(size_t(160) * 80);
+    for (size_t t = 0; t < grey.size(); ++t) {
+        for (int c = 0; c < 3; ++c) rgba[t * 4 + c] = std::min(img.pixels[t * 3 + c], 1.0f);
+        rgba[t * 4 + 3] = float(t % 7) / 6.0f;
+        grey[t] = std::min(img.pixels[t * 3 + 1], 1.0f);
+    }
+    auto file = [&](const std::string& name) { return (dir / name).string(); };
+    io::write_png8(file("rgb.png"), 160, 80, 3, {img.pixels.data(), img.pixels.size()});
+    io::write_png8(file("rgba.png"), 160, 80, 4, {rgba.data(), rgba.size()});
+    io::write_png16(file("grey16.png"), 160, 80, 1, {grey.data(), grey.size()});
+    testfiles::write_jpeg(file("rgb.jpg"), img);
+    testfiles::write_jpeg(file("grey.jpg"), img, true);
+    std::vector<std::string> paths = {file("rgb.png"), file("rgba.png"), file("grey16.png"), file("rgb.jpg"),
+                                      file("grey.jpg")};
+    if (io::reads_format("hdr")) {
+        testfiles::write_radiance(file("s.hdr"), img, "-Y 80 +X 160");
+        testfiles::write_pfm(file("s.pfm"), img);
+        paths.push_back(file("s.hdr"));
+        paths.push_back(file("s.pfm"));
+    }
+    for (const std::string& path : paths) {
         const io::LoadedImage whole = io::read_image(path);
         std::unique_ptr<io::RowReader> r = io::open_rows(path);
         ASSERT_TRUE(r) << path;
         ASSERT_EQ(r->width(), whole.image.width);
         ASSERT_EQ(r->height(), whole.image.height);
         EXPECT_EQ(r->warnings(), whole.warnings);
-        EXPECT_EQ(r->linearised(), whole.linearised);
+        EXPECT_EQ(r->linearised(), whole.linearised) << path;
         EXPECT_GE(r->preferred_band(), 16);
         for (int band : {1, 7, 80, r->preferred_band()})
             for (bool backwards : {false, true}) {
@@ -409,27 +428,50 @@ TEST(RowReader, PluginFormatsAreReadImagesRows) {
         std::vector<float> out(size_t(r->width()) * 3 * 2);
         EXPECT_THROW(r->read(79, 2, out.data()), std::out_of_range);
     }
-    // The values came through: the PFM's floats exactly, the HDR's within RGBE's 8-bit
-    // mantissa (a step of 1/128 of the texel's largest channel at most).
-    const io::LoadedImage p = io::read_image(pfm), h = io::read_image(hdr);
-    EXPECT_EQ(0, std::memcmp(p.image.pixels.data(), img.pixels.data(), img.pixels.size() * sizeof(float)));
-    for (size_t t = 0; t < img.pixels.size() / 3; t += 31) {
-        const float* v = &img.pixels[t * 3];
-        const float step = std::max({v[0], v[1], v[2]}) / 128.0f;
-        for (int c = 0; c < 3; ++c) EXPECT_NEAR(h.image.pixels[t * 3 + c], v[c], step) << "texel " << t;
+    EXPECT_TRUE(io::read_image(file("rgb.png")).linearised);
+    EXPECT_FALSE(io::read_image(file("grey16.png")).linearised);  // gAMA 1: linear
+    if (io::reads_format("hdr")) {
+        // The values came through: the PFM's floats exactly, the HDR's within RGBE's 8-bit
+        // mantissa (a step of 1/128 of the texel's largest channel at most).
+        const io::LoadedImage p = io::read_image(file("s.pfm")), h = io::read_image(file("s.hdr"));
+        EXPECT_EQ(0, std::memcmp(p.image.pixels.data(), img.pixels.data(), img.pixels.size() * sizeof(float)));
+        for (size_t t = 0; t < img.pixels.size() / 3; t += 31) {
+            const float* v = &img.pixels[t * 3];
+            const float step = std::max({v[0], v[1], v[2]}) / 128.0f;
+            for (int c = 0; c < 3; ++c) EXPECT_NEAR(h.image.pixels[t * 3 + c], v[c], step) << "texel " << t;
+        }
     }
     fs::remove_all(dir);
 }
 
-// What is read whole: PNG and JPEG (libpng and libjpeg read them in one
-// go), a Radiance file stored in another order (turned as it is read). A
-// file that cannot be read gets read_image's error before any pixel.
+// What is read whole: an interlaced PNG (every pass covers every row), a
+// Radiance file stored in another order (turned as it is read). A file that
+// cannot be read gets read_image's error: a missing file and a cut JPEG
+// before any pixel, a cut PNG or HDR at the rows past the cut.
 TEST(RowReader, WhatIsReadWholeAndWhatIsRefused) {
     const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_whole_" + std::to_string(::getpid()));
     fs::create_directories(dir);
     const Image img = ref::random_smooth_source(64, 32, 2);
-    io::write_png8((dir / "s.png").string(), 64, 32, 3, {img.pixels.data(), img.pixels.size()});
-    EXPECT_FALSE(io::open_rows((dir / "s.png").string()));
+    testfiles::write_png_interlaced((dir / "adam7.png").string(), img);
+    EXPECT_FALSE(io::open_rows((dir / "adam7.png").string()));
+    EXPECT_EQ(io::read_image((dir / "adam7.png").string()).image.width, 64);
+    const std::string cut_png = (dir / "cut.png").string(), cut_jpg = (dir / "cut.jpg").string();
+    const Image noise = ref::random_smooth_source(256, 128, 9);
+    io::write_png8(cut_png, 256, 128, 3, {noise.pixels.data(), noise.pixels.size()});
+    fs::resize_file(cut_png, fs::file_size(cut_png) / 2);
+    testfiles::write_jpeg(cut_jpg, noise);
+    fs::resize_file(cut_jpg, fs::file_size(cut_jpg) / 2);
+    EXPECT_THROW(io::open_rows(cut_jpg), std::runtime_error);  // no end-of-image marker: refused as read_image does
+    std::unique_ptr<io::RowReader> png = io::open_rows(cut_png);
+    ASSERT_TRUE(png);
+    std::vector<float> all(size_t(256) * 128 * 3);
+    try {
+        png->read(0, 128, all.data());
+        ADD_FAILURE() << "a cut PNG read to its end";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("cannot read '" + cut_png + "': PNG"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(io::read_image(cut_png), std::runtime_error);
     try {
         io::open_rows((dir / "none.exr").string());
         ADD_FAILURE() << "a missing file was opened";

@@ -371,74 +371,100 @@ std::string checked_format(const std::string& path, uintmax_t& size) {
     return format;
 }
 
-// A file OpenImageIO's plugin reads by scanlines, as linear RGB rows.
-class PluginRowReader final : public RowReader {
+// A file OpenImageIO's plugin reads by scanlines.
+class PluginRows final : public detail::RawRows {
 public:
-    PluginRowReader(const Plugin& p, void* handle, const detail::IblbakeOiioImage& header, std::string path)
-        : plugin_(p), handle_(handle), path_(std::move(path)), width_(header.width), height_(header.height) {
-        RawPixels r;
-        r.width = header.width;
-        r.height = header.height;
-        r.channels = header.channels;
-        r.alpha_channel = header.alpha_channel;
-        r.is_float = header.is_float != 0;
-        r.colorspace = header.colorspace;
-        rule_ = colour_rule(r, warnings_);
+    PluginRows(const Plugin& p, void* handle, const detail::IblbakeOiioImage& h) : plugin_(p), handle_(handle) {
+        header.width = h.width;
+        header.height = h.height;
+        header.channels = h.channels;
+        header.alpha_channel = h.alpha_channel;
+        header.is_float = h.is_float != 0;
+        header.colorspace = h.colorspace;
+        header.format = h.format;
     }
-    ~PluginRowReader() override { plugin_.close_rows(handle_); }
-    PluginRowReader(const PluginRowReader&) = delete;
-    PluginRowReader& operator=(const PluginRowReader&) = delete;
-
-    int width() const override { return width_; }
-    int height() const override { return height_; }
-    const std::vector<std::string>& warnings() const override { return warnings_; }
-    bool linearised() const override { return rule_.linearised; }
+    ~PluginRows() override { plugin_.close_rows(handle_); }
+    PluginRows(const PluginRows&) = delete;
+    PluginRows& operator=(const PluginRows&) = delete;
     // A few megabytes of floats a band: the decoders read scanline after scanline.
-    int preferred_band() const override { return std::clamp(int((1 << 20) / std::max(width_, 1)), 16, 256); }
+    int preferred_band() const override { return std::clamp(int((1 << 20) / std::max(header.width, 1)), 16, 256); }
     void read(int y0, int rows, float* out) override {
-        if (y0 < 0 || rows < 0 || y0 + rows > height_) throw std::out_of_range("rows outside the image");
-        if (rows == 0) return;
-        float* dst = out;
-        if (!rule_.identity()) {
-            scratch_.resize(size_t(rows) * width_ * rule_.channels);
-            dst = scratch_.data();
-        }
         char error[512] = {0};
-        if (plugin_.read_rows(handle_, y0, rows, dst, error, sizeof(error)) != 1) detail::fail_reading(path_, error);
-        if (dst != out) rule_.apply(dst, size_t(rows) * width_, out);
+        if (plugin_.read_rows(handle_, y0, rows, out, error, sizeof(error)) != 1) throw std::runtime_error(error);
     }
+
 private:
     const Plugin& plugin_;
     void* handle_;
+};
+
+// A reader's rows as linear RGB: read_image's finishing, row by row.
+class FinishedRows final : public RowReader {
+public:
+    FinishedRows(std::unique_ptr<detail::RawRows> raw, std::string path)
+        : raw_(std::move(raw)), path_(std::move(path)) {
+        rule_ = colour_rule(raw_->header, warnings_);
+    }
+    int width() const override { return raw_->header.width; }
+    int height() const override { return raw_->header.height; }
+    const std::vector<std::string>& warnings() const override { return warnings_; }
+    bool linearised() const override { return rule_.linearised; }
+    int preferred_band() const override { return raw_->preferred_band(); }
+    void read(int y0, int rows, float* out) override {
+        if (y0 < 0 || rows < 0 || y0 + rows > height()) throw std::out_of_range("rows outside the image");
+        if (rows == 0) return;
+        float* dst = out;
+        if (!rule_.identity()) {
+            scratch_.resize(size_t(rows) * width() * rule_.channels);
+            dst = scratch_.data();
+        }
+        try {
+            raw_->read(y0, rows, dst);
+        } catch (const std::bad_alloc&) {
+            detail::fail_reading(path_, "out of memory while reading");
+        } catch (const std::exception& e) {
+            detail::fail_reading(path_, e.what());
+        }
+        if (dst != out) rule_.apply(dst, size_t(rows) * width(), out);
+    }
+
+private:
+    std::unique_ptr<detail::RawRows> raw_;
     std::string path_;
-    int width_ = 0, height_ = 0;
     ColourRule rule_;
     std::vector<std::string> warnings_;
     std::vector<float> scratch_;
 };
+
+// The plugin's rows of a file, or null when it is read whole.
+std::unique_ptr<detail::RawRows> plugin_rows(const std::string& path, const std::string& format, uintmax_t size) {
+    const Plugin& p = plugin();
+    if (!p.open_rows) return nullptr;  // read_image says why it cannot read it, or reads it whole
+    if (format == "tiff") detail::check_tiff_complete(path, size);
+    detail::IblbakeOiioImage header{};
+    char error[512] = {0};
+    int rc = 0;
+    void* handle = p.open_rows(path.c_str(), format.c_str(), kMaxSourceSide, plugin_max_values(size), &header, &rc,
+                               error, sizeof(error));
+    if (rc == 2) detail::check_declared(header.width, header.height, header.channels, size);  // throws
+    if (rc == 3) return nullptr;
+    if (!handle) throw std::runtime_error(error);
+    return std::make_unique<PluginRows>(p, handle, header);  // closes the handle from here on
+}
 }  // namespace
 
 std::unique_ptr<RowReader> open_rows(const std::string& path) {
     uintmax_t size = 0;
     const std::string format = checked_format(path, size);
     if (format == "openexr") return std::make_unique<ExrRowReader>(path);
-    if (format == "png" || format == "jpeg") return nullptr;
-    const Plugin& p = plugin();
-    if (!p.open_rows) return nullptr;  // read_image says why it cannot read it, or reads it whole
     try {
-        if (format == "tiff") detail::check_tiff_complete(path, size);
-        detail::IblbakeOiioImage header{};
-        char error[512] = {0};
-        int rc = 0;
-        void* handle = p.open_rows(path.c_str(), format.c_str(), kMaxSourceSide, plugin_max_values(size), &header,
-                                   &rc, error, sizeof(error));
-        if (rc == 2) detail::check_declared(header.width, header.height, header.channels, size);  // throws
-        if (rc == 3) return nullptr;
-        if (!handle) detail::fail_reading(path, error);
-        auto reader = std::make_unique<PluginRowReader>(p, handle, header, path);  // closes the handle from here on
-        check_source_size(header.width, header.height);
-        detail::check_declared(header.width, header.height, header.channels, size);
-        return reader;
+        std::unique_ptr<detail::RawRows> raw = format == "png"    ? detail::png_rows(path, size)
+                                               : format == "jpeg" ? detail::jpeg_rows(path, size)
+                                                                  : plugin_rows(path, format, size);
+        if (!raw) return nullptr;
+        check_source_size(raw->header.width, raw->header.height);
+        detail::check_declared(raw->header.width, raw->header.height, raw->header.channels, size);
+        return std::make_unique<FinishedRows>(std::move(raw), path);
     } catch (const std::bad_alloc&) {
         detail::fail_reading(path, "out of memory while reading");
     } catch (const std::runtime_error& e) {

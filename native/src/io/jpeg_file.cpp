@@ -45,14 +45,21 @@ struct JpegOut {
     std::vector<unsigned char> buffer;
 };
 
-// Every libjpeg call, in a frame that holds no C++ object: an error longjmps here.
-bool jpeg_read_core(jpeg_decompress_struct* cinfo, ErrorManager* err, JpegOut* o, std::FILE* f, uintmax_t file_size,
+// The decompressor's creation (it fails only out of memory), in a frame of its own.
+bool jpeg_create_core(jpeg_decompress_struct* cinfo, ErrorManager* err) {
+    if (setjmp(err->jump)) return false;
+    jpeg_create_decompress(cinfo);
+    return true;
+}
+
+// The header, up to the first scanline, in a frame that holds no C++ object:
+// an error longjmps here. The decompressor was created by the caller.
+bool jpeg_open_core(jpeg_decompress_struct* cinfo, ErrorManager* err, JpegOut* o, std::FILE* f, uintmax_t file_size,
                     std::string* why) {
     if (setjmp(err->jump)) {
         *why = err->message;
         return false;
     }
-    jpeg_create_decompress(cinfo);
     jpeg_stdio_src(cinfo, f);
     jpeg_read_header(cinfo, TRUE);
     if (cinfo->jpeg_color_space == JCS_CMYK || cinfo->jpeg_color_space == JCS_YCCK) {
@@ -66,6 +73,17 @@ bool jpeg_read_core(jpeg_decompress_struct* cinfo, ErrorManager* err, JpegOut* o
     o->channels = cinfo->output_components;
     check_declared(o->w, o->h, o->channels, file_size);  // throws before the pixels are allocated
     jpeg_start_decompress(cinfo);
+    return true;
+}
+
+// Every libjpeg call of a whole read, each in a frame that holds no C++ object.
+bool jpeg_read_core(jpeg_decompress_struct* cinfo, ErrorManager* err, JpegOut* o, std::FILE* f, uintmax_t file_size,
+                    std::string* why) {
+    if (!jpeg_open_core(cinfo, err, o, f, file_size, why)) return false;
+    if (setjmp(err->jump)) {
+        *why = err->message;
+        return false;
+    }
     const size_t stride = size_t(o->w) * o->channels;
     o->buffer.resize(stride * o->h);
     while (cinfo->output_scanline < cinfo->output_height) {
@@ -88,6 +106,7 @@ RawPixels read_jpeg(const std::string& path, uintmax_t file_size) {
     JpegOut o;
     std::string why;
     bool ok = false;
+    if (!jpeg_create_core(&cinfo, &err)) throw std::runtime_error("libjpeg could not start");
     try {
         ok = jpeg_read_core(&cinfo, &err, &o, f.get(), file_size, &why);
     } catch (...) {
@@ -106,6 +125,99 @@ RawPixels read_jpeg(const std::string& path, uintmax_t file_size) {
     out.data.resize(o.buffer.size());
     for (size_t k = 0; k < o.buffer.size(); ++k) out.data[k] = float(o.buffer[k]) * (1.0f / 255.0f);
     return out;
+}
+
+namespace {
+// `rows` scanlines into `buffer` (`stride` bytes each), and the decompression's
+// end after the last one: libjpeg's calls in a frame that holds no C++ object.
+bool jpeg_rows_core(jpeg_decompress_struct* cinfo, ErrorManager* err, unsigned char* buffer, size_t stride, int rows,
+                    std::string* why) {
+    if (setjmp(err->jump)) {
+        *why = err->message;
+        return false;
+    }
+    for (int k = 0; k < rows; ++k) {
+        JSAMPROW row = buffer + stride * size_t(k);
+        jpeg_read_scanlines(cinfo, &row, 1);
+    }
+    if (cinfo->output_scanline >= cinfo->output_height) jpeg_finish_decompress(cinfo);
+    return true;
+}
+
+// A JPEG's scanlines in order (a row before the last one read opens the file
+// again and skips to it).
+class JpegRows final : public RawRows {
+public:
+    JpegRows(std::string path, uintmax_t file_size) : path_(std::move(path)), file_size_(file_size) { open(); }
+    ~JpegRows() override { close(); }
+    JpegRows(const JpegRows&) = delete;
+    JpegRows& operator=(const JpegRows&) = delete;
+
+    int preferred_band() const override { return 64; }
+    void read(int y0, int rows, float* out) override {
+        if (y0 < next_) {
+            close();
+            open();
+        }
+        const size_t stride = size_t(o_.w) * o_.channels;
+        while (next_ < y0) take(std::min(64, y0 - next_), stride);
+        for (int done = 0; done < rows;) {
+            const int n = std::min(64, rows - done);
+            take(n, stride);
+            float* dst = out + size_t(done) * stride;
+            for (size_t k = 0; k < stride * size_t(n); ++k) dst[k] = float(buffer_[k]) * (1.0f / 255.0f);
+            done += n;
+        }
+    }
+
+private:
+    void open() {
+        f_ = std::fopen(path_.c_str(), "rb");
+        if (!f_) throw std::runtime_error("cannot open the file");
+        cinfo_ = jpeg_decompress_struct{};
+        err_ = ErrorManager{};
+        cinfo_.err = jpeg_std_error(&err_.pub);
+        err_.pub.error_exit = jpeg_fail;
+        err_.pub.emit_message = jpeg_message;
+        if (!jpeg_create_core(&cinfo_, &err_)) throw std::runtime_error("libjpeg could not start");
+        created_ = true;
+        std::string why;
+        if (!jpeg_open_core(&cinfo_, &err_, &o_, f_, file_size_, &why)) throw std::runtime_error("JPEG " + why);
+        next_ = 0;
+        header.format = "jpeg";
+        header.width = int(o_.w);
+        header.height = int(o_.h);
+        header.channels = o_.channels;
+        header.is_float = false;
+        header.colorspace = "sRGB";
+    }
+    void close() {
+        if (created_) jpeg_destroy_decompress(&cinfo_);
+        created_ = false;
+        if (f_) std::fclose(f_);
+        f_ = nullptr;
+    }
+    void take(int n, size_t stride) {
+        buffer_.resize(stride * size_t(n));
+        std::string why;
+        if (!jpeg_rows_core(&cinfo_, &err_, buffer_.data(), stride, n, &why)) throw std::runtime_error("JPEG " + why);
+        next_ += n;
+    }
+
+    std::string path_;
+    uintmax_t file_size_;
+    std::FILE* f_ = nullptr;
+    jpeg_decompress_struct cinfo_{};
+    ErrorManager err_{};
+    bool created_ = false;
+    JpegOut o_;
+    int next_ = 0;
+    std::vector<unsigned char> buffer_;
+};
+}  // namespace
+
+std::unique_ptr<RawRows> jpeg_rows(const std::string& path, uintmax_t file_size) {
+    return std::make_unique<JpegRows>(path, file_size);
 }
 
 }  // namespace iblbake::io::detail

@@ -43,10 +43,11 @@ struct PngOut {
     std::vector<png_bytep> rows;
 };
 
-// Every libpng call, in a frame of its own that holds no C++ object: an
-// error longjmps back here and the caller throws.
-bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FILE* f, uintmax_t file_size,
-                   const std::function<void(double)>* progress) {
+// The header and the transforms to 8- or 16-bit grey, RGB or RGBA, in a
+// frame of its own that holds no C++ object: an error longjmps back here and
+// the caller throws. The passes (7 for an interlaced file) in *passes.
+bool png_open_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FILE* f, uintmax_t file_size,
+                   int* passes) {
     if (setjmp(st->jump)) return false;
     png_init_io(png, f);
     png_read_info(png, info);
@@ -57,18 +58,27 @@ bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FI
     if (type == PNG_COLOR_TYPE_GRAY && depth < 8) png_set_expand_gray_1_2_4_to_8(png);
     if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
     if (depth == 16) png_set_swap(png);  // host order
-    const int passes = png_set_interlace_handling(png);
+    *passes = png_set_interlace_handling(png);
     png_read_update_info(png, info);
     o->channels = png_get_channels(png, info);
     o->bytes = png_get_bit_depth(png, info) == 16 ? 2 : 1;
     check_declared(o->w, o->h, o->channels, file_size);  // throws before anything is allocated
     double gamma = 0.0;
     o->linear = png_get_gAMA(png, info, &gamma) && std::fabs(gamma - 1.0) < 0.01;
-    const size_t stride = png_get_rowbytes(png, info);
-    if (stride != size_t(o->w) * o->channels * o->bytes) {
+    if (png_get_rowbytes(png, info) != size_t(o->w) * o->channels * o->bytes) {
         st->error = "row size is inconsistent";
         return false;
     }
+    return true;
+}
+
+// Every libpng call of a whole read, each in a frame that holds no C++ object.
+bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FILE* f, uintmax_t file_size,
+                   const std::function<void(double)>* progress) {
+    int passes = 1;
+    if (!png_open_core(png, info, st, o, f, file_size, &passes)) return false;
+    if (setjmp(st->jump)) return false;
+    const size_t stride = size_t(o->w) * o->channels * o->bytes;
     o->buffer.resize(stride * o->h);
     o->rows.resize(o->h);
     for (png_uint_32 y = 0; y < o->h; ++y) o->rows[y] = o->buffer.data() + y * stride;
@@ -82,6 +92,22 @@ bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FI
     png_read_end(png, nullptr);
     return true;
 }
+}  // namespace
+
+namespace {
+// 8- or 16-bit values (host order) as floats in [0, 1], as read_png() makes them.
+void png_to_float(const unsigned char* in, size_t values, int bytes, float* out) {
+    if (bytes == 2) {
+        for (size_t k = 0; k < values; ++k) {
+            uint16_t v;
+            std::memcpy(&v, in + 2 * k, 2);
+            out[k] = float(v) * (1.0f / 65535.0f);
+        }
+    } else {
+        for (size_t k = 0; k < values; ++k) out[k] = float(in[k]) * (1.0f / 255.0f);
+    }
+}
+
 }  // namespace
 
 RawPixels read_png(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress) {
@@ -111,17 +137,101 @@ RawPixels read_png(const std::string& path, uintmax_t file_size, const std::func
     out.colorspace = o.linear ? "linear" : "sRGB";
     std::vector<png_bytep>().swap(o.rows);
     out.data.resize(size_t(o.w) * o.h * o.channels);
-    const float scale = o.bytes == 2 ? 1.0f / 65535.0f : 1.0f / 255.0f;
-    if (o.bytes == 2) {
-        for (size_t k = 0; k < out.data.size(); ++k) {
-            uint16_t v;
-            std::memcpy(&v, &o.buffer[2 * k], 2);
-            out.data[k] = float(v) * scale;
-        }
-    } else {
-        for (size_t k = 0; k < out.data.size(); ++k) out.data[k] = float(o.buffer[k]) * scale;
-    }
+    png_to_float(o.buffer.data(), out.data.size(), o.bytes, out.data.data());
     return out;
+}
+
+namespace {
+// `rows` rows into `rows_at` (row pointers), and the file's end after its
+// last row (`end`): libpng's calls in a frame that holds no C++ object.
+bool png_rows_core(png_structp png, ReadState* st, png_bytepp rows_at, png_uint_32 rows, bool end) {
+    if (setjmp(st->jump)) return false;
+    png_read_rows(png, rows_at, nullptr, rows);
+    if (end) png_read_end(png, nullptr);
+    return true;
+}
+
+// A non-interlaced PNG, rows in order (a row before the last one read opens
+// the file again and skips to it).
+class PngRows final : public RawRows {
+public:
+    PngRows(std::string path, uintmax_t file_size) : path_(std::move(path)), file_size_(file_size) { open(); }
+    ~PngRows() override { close(); }
+    PngRows(const PngRows&) = delete;
+    PngRows& operator=(const PngRows&) = delete;
+
+    bool interlaced() const { return passes_ > 1; }
+    int preferred_band() const override { return 64; }
+    void read(int y0, int rows, float* out) override {
+        if (y0 < next_) {
+            close();
+            open();
+        }
+        const size_t stride = size_t(o_.w) * o_.channels * o_.bytes;
+        while (next_ < y0) {  // skipped rows
+            const png_uint_32 n = png_uint_32(std::min(64, y0 - next_));
+            take(n, stride);
+        }
+        for (int done = 0; done < rows;) {
+            const int n = std::min(64, rows - done);
+            take(png_uint_32(n), stride);
+            png_to_float(buffer_.data(), size_t(n) * o_.w * o_.channels, o_.bytes,
+                         out + size_t(done) * o_.w * o_.channels);
+            done += n;
+        }
+    }
+
+private:
+    void open() {
+        f_ = std::fopen(path_.c_str(), "rb");
+        if (!f_) throw std::runtime_error("cannot open the file");
+        png_ = png_create_read_struct(PNG_LIBPNG_VER_STRING, &st_, png_read_error, png_read_warning);
+        info_ = png_ ? png_create_info_struct(png_) : nullptr;
+        if (!png_ || !info_) throw std::runtime_error("libpng could not start");
+        if (!png_open_core(png_, info_, &st_, &o_, f_, file_size_, &passes_)) throw std::runtime_error("PNG " + st_.error);
+        next_ = 0;
+        header.format = "png";
+        header.width = int(o_.w);
+        header.height = int(o_.h);
+        header.channels = o_.channels;
+        header.alpha_channel = o_.channels == 2 || o_.channels == 4 ? o_.channels - 1 : -1;
+        header.straight_alpha = header.alpha_channel >= 0;  // PNG's alpha is never premultiplied
+        header.is_float = false;
+        header.colorspace = o_.linear ? "linear" : "sRGB";
+    }
+    void close() {
+        if (png_) png_destroy_read_struct(&png_, &info_, nullptr);
+        png_ = nullptr, info_ = nullptr;
+        if (f_) std::fclose(f_);
+        f_ = nullptr;
+    }
+    // The next n rows into buffer_ (the file's end checked after its last row).
+    void take(png_uint_32 n, size_t stride) {
+        buffer_.resize(stride * n);
+        row_at_.resize(n);
+        for (png_uint_32 k = 0; k < n; ++k) row_at_[k] = buffer_.data() + k * stride;
+        if (!png_rows_core(png_, &st_, row_at_.data(), n, next_ + int(n) == int(o_.h)))
+            throw std::runtime_error("PNG " + st_.error);
+        next_ += int(n);
+    }
+
+    std::string path_;
+    uintmax_t file_size_;
+    FILE* f_ = nullptr;
+    png_structp png_ = nullptr;
+    png_infop info_ = nullptr;
+    ReadState st_;
+    PngOut o_;
+    int passes_ = 1, next_ = 0;
+    std::vector<unsigned char> buffer_;
+    std::vector<png_bytep> row_at_;
+};
+}  // namespace
+
+std::unique_ptr<RawRows> png_rows(const std::string& path, uintmax_t file_size) {
+    auto rows = std::make_unique<PngRows>(path, file_size);
+    if (rows->interlaced()) return nullptr;  // every pass covers every row: read whole
+    return rows;
 }
 
 void write_png_file_rows(const std::string& path, int width, int height, int channels, int bits,

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,22 @@ struct RawPixels {
     FloatBuffer data;                       // width * height * channels
     std::vector<std::string> warnings;      // what the reader chose (a layer, a part, grey)
 };
+
+// A file's rows as its reader decodes them (the streaming bake's readers):
+// the header as RawPixels holds it (no data), and rows of `channels` floats.
+// read_image's finishing (channel choice, alpha, sRGB decode) is applied by
+// io::open_rows's reader. Errors are std::runtime_error with the reason alone.
+class RawRows {
+public:
+    virtual ~RawRows() = default;
+    RawPixels header;
+    virtual int preferred_band() const = 0;
+    // Rows y0 .. y0 + rows - 1 into out: rows x width x channels floats.
+    virtual void read(int y0, int rows, float* out) = 0;
+};
+// A PNG's rows (null for an interlaced one: every pass covers every row) and a JPEG's.
+std::unique_ptr<RawRows> png_rows(const std::string& path, uintmax_t file_size);
+std::unique_ptr<RawRows> jpeg_rows(const std::string& path, uintmax_t file_size);
 
 // The OpenEXR reader and writer (exr_file.cpp) and the PNG writer (png_file.cpp); the writers take
 // their pixels in bands of rows from `fill` (io::write_exr and friends hand them a whole buffer so).

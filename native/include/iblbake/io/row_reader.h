@@ -26,11 +26,11 @@ public:
     virtual void read(int y0, int rows, float* out) = 0;
 };
 
-// The file as rows when its format is decoded a band at a time: OpenEXR
-// (ExrRowReader) and what OpenImageIO's plugin reads by scanlines (Radiance
-// HDR, TIFF, PFM, ...). Null when it is read whole only: PNG and JPEG (read
-// by libpng and libjpeg in one go), an image turned by its Orientation or
-// with a data window of its own, or a build without the plugin. Throws
+// The file as rows, decoded a band at a time: OpenEXR (ExrRowReader), PNG
+// (libpng), JPEG (libjpeg) and what OpenImageIO's plugin reads by scanlines
+// (Radiance HDR, TIFF, PFM, ...). Null when it is read whole only: an
+// interlaced PNG, an image turned by its Orientation or with a data window
+// of its own, or a plugin format in a build without the plugin. Throws
 // read_image's error ("cannot read '<path>': ...") for a file it cannot
 // read, before any pixel is decoded.
 std::unique_ptr<RowReader> open_rows(const std::string& path);
