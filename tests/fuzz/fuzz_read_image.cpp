@@ -1,17 +1,25 @@
 // libFuzzer target for the image readers (io::read_image: EXR through
 // OpenEXR, PNG through libpng, the TIFF strip check, everything else through
-// the OpenImageIO plugin). Built and run by scripts/fuzz.sh with clang's
+// the OpenImageIO plugin) and their row readers (io::open_rows, the
+// streaming bake's). Built and run by scripts/fuzz.sh with clang's
 // -fsanitize=fuzzer,address,undefined. Besides crashes, leaks and undefined
 // behaviour it flags: an exception that is not std::exception, an error that
-// is not one printable line, and an image larger than the documented maximum.
+// is not one printable line, an image larger than the documented maximum,
+// and rows that differ from read_image's image (or rows read to the end of a
+// file read_image refuses).
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "iblbake/io/image_io.h"
+#include "iblbake/io/row_reader.h"
 
 namespace {
 // The file's extension decides the reader only when the magic bytes name
@@ -36,16 +44,43 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (size > 1) std::fwrite(data + 1, 1, size - 1, f);
         std::fclose(f);
     }
+    auto check_message = [](const std::exception& e) {
+        const std::string msg = e.what();
+        for (const char c : msg)
+            if (c == '\n' || (static_cast<unsigned char>(c) < 0x20)) std::abort();  // not one printable line
+    };
+    bool whole_ok = false;
+    iblbake::Image whole;
     try {
-        const iblbake::io::LoadedImage img = iblbake::io::read_image(path);
+        iblbake::io::LoadedImage img = iblbake::io::read_image(path);
         const auto& im = img.image;
         if (im.width < 1 || im.height < 1 || int64_t(im.width) * im.height > iblbake::io::kMaxSourcePixels ||
             im.pixels.size() != size_t(im.width) * im.height * 3)
             std::abort();  // the reader let through what it promises to refuse
+        whole = std::move(img.image);
+        whole_ok = true;
     } catch (const std::exception& e) {
-        const std::string msg = e.what();
-        for (const char c : msg)
-            if (c == '\n' || (static_cast<unsigned char>(c) < 0x20)) std::abort();  // not one printable line
+        check_message(e);
+    }
+    // The same file's rows, in bands of 7: read_image's image to the bit, or an error where it has one.
+    try {
+        std::unique_ptr<iblbake::io::RowReader> rows = iblbake::io::open_rows(path);
+        if (rows) {
+            const int w = rows->width(), h = rows->height();
+            if (w < 1 || h < 1 || int64_t(w) * h > iblbake::io::kMaxSourcePixels) std::abort();
+            if (whole_ok && (w != whole.width || h != whole.height)) std::abort();
+            std::vector<float> band(size_t(w) * 7 * 3);
+            for (int y = 0; y < h; y += 7) {
+                const int n = std::min(7, h - y);
+                rows->read(y, n, band.data());
+                if (whole_ok && std::memcmp(band.data(), whole.at(0, y), size_t(w) * n * 3 * sizeof(float)) != 0)
+                    std::abort();  // rows that are not read_image's
+            }
+            if (!whole_ok) std::abort();  // every row read of a file read_image refuses
+        }
+    } catch (const std::exception& e) {
+        check_message(e);
+        if (whole_ok) std::abort();  // the rows failed where the whole read did not
     }
     std::remove(path.c_str());
     return 0;

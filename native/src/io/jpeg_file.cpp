@@ -148,7 +148,14 @@ bool jpeg_rows_core(jpeg_decompress_struct* cinfo, ErrorManager* err, unsigned c
 // again and skips to it).
 class JpegRows final : public RawRows {
 public:
-    JpegRows(std::string path, uintmax_t file_size) : path_(std::move(path)), file_size_(file_size) { open(); }
+    JpegRows(std::string path, uintmax_t file_size) : path_(std::move(path)), file_size_(file_size) {
+        try {
+            open();
+        } catch (...) {  // no destructor runs for a constructor that throws
+            close();
+            throw;
+        }
+    }
     ~JpegRows() override { close(); }
     JpegRows(const JpegRows&) = delete;
     JpegRows& operator=(const JpegRows&) = delete;

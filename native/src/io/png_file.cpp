@@ -155,7 +155,14 @@ bool png_rows_core(png_structp png, ReadState* st, png_bytepp rows_at, png_uint_
 // the file again and skips to it).
 class PngRows final : public RawRows {
 public:
-    PngRows(std::string path, uintmax_t file_size) : path_(std::move(path)), file_size_(file_size) { open(); }
+    PngRows(std::string path, uintmax_t file_size) : path_(std::move(path)), file_size_(file_size) {
+        try {
+            open();
+        } catch (...) {  // no destructor runs for a constructor that throws
+            close();
+            throw;
+        }
+    }
     ~PngRows() override { close(); }
     PngRows(const PngRows&) = delete;
     PngRows& operator=(const PngRows&) = delete;

@@ -101,7 +101,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     const bool one_thread = plan.bake.threads == 1 || !regular;
     // A file whose bake needs no whole source is decoded in bands and
     // reduced as it goes (issue 28): its memory does not grow with the file.
-    // (EXR, and what OpenImageIO reads by scanlines, such as Radiance HDR;
+    // (EXR, PNG, JPEG, Radiance HDR, PFM: io::open_rows;
     // when its bins would not take more memory than the source's floats.)
     std::unique_ptr<FileRows> streamed;
     if (regular && whole_source_reason(plan.bake).empty()) {

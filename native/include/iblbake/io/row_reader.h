@@ -27,10 +27,10 @@ public:
 };
 
 // The file as rows, decoded a band at a time: OpenEXR (ExrRowReader), PNG
-// (libpng), JPEG (libjpeg) and what OpenImageIO's plugin reads by scanlines
-// (Radiance HDR, TIFF, PFM, ...). Null when it is read whole only: an
-// interlaced PNG, an image turned by its Orientation or with a data window
-// of its own, or a plugin format in a build without the plugin. Throws
+// (libpng), JPEG (libjpeg), Radiance HDR and PNM/PFM (OpenImageIO's
+// scanline reads, in the plugin). Null when it is read whole only: an
+// interlaced PNG, a Radiance file stored turned, TIFF and the plugin's other
+// formats, or a build without the plugin. Throws
 // read_image's error ("cannot read '<path>': ...") for a file it cannot
 // read, before any pixel is decoded.
 std::unique_ptr<RowReader> open_rows(const std::string& path);
