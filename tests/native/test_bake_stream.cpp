@@ -221,7 +221,7 @@ TEST(StreamedBake, BakeFileFallsBackForTheOverflowGuard) {
     const fs::path dir = fs::temp_directory_path() / ("iblbake_test_overflow_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
-    Image src = ref::random_smooth_source(1024, 512, 4);
+    Image src = ref::random_smooth_source(2048, 1024, 4);  // large enough to stream (stream_bytes)
     src.at(300, 200)[1] = 1e30f;
     io::write_exr((dir / "s.exr").string(), src, io::ExrPixel::Float);
     double last = 0.0;
@@ -272,7 +272,7 @@ TEST(StreamedBake, StateBytes) {
     EXPECT_EQ(stream_state_bytes(o), tree + mirror);
     o.face_size = 64;  // finest 256: the irradiance's 128 x 64 bins of its own
     EXPECT_EQ(stream_state_bytes(o), (256.0 * 128 + 128.0 * 64) * sizeof(Bin) + 52.0 * 64 * 64);
-    EXPECT_LT(stream_state_bytes(BakeOptions()), 12.0 * 2048 * 1024);  // a 2K source streams
+    EXPECT_LT(stream_state_bytes(BakeOptions()), 12.0 * 2048 * 1024);  // (bake_file adds three bands of rows)
     EXPECT_GT(stream_state_bytes(BakeOptions()), 12.0 * 1024 * 512);   // a 1K source is read whole
 }
 
@@ -288,13 +288,14 @@ TEST_P(BakeFileStreams, WritesTheWholeImagePathsFiles) {
     const fs::path dir = fs::temp_directory_path() / ("iblbake_test_stream_" + ext + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
-    Image src = ref::sun_source(1024, 512, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f);
+    // 2048 x 1024: its floats (25 MB) outweigh the bake's state and three bands (stream_bytes), so it streams.
+    Image src = ref::sun_source(2048, 1024, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f);
     const std::string path = (dir / ("s." + ext)).string();
     if (ext == "exr") {
         src.at(100, 100)[0] = std::numeric_limits<float>::quiet_NaN();
         io::write_exr(path, src, io::ExrPixel::Float);
     } else if (ext == "hdr") {
-        testfiles::write_radiance(path, src, "-Y 512 +X 1024");
+        testfiles::write_radiance(path, src, "-Y 1024 +X 2048");
     } else if (ext == "png") {  // 8-bit sRGB: the values clamped to 1, decoded as read_image decodes them
         io::write_png8(path, src.width, src.height, 3, {src.pixels.data(), src.pixels.size()});
     } else if (ext == "jpg") {

@@ -386,8 +386,8 @@ public:
     ~PluginRows() override { plugin_.close_rows(handle_); }
     PluginRows(const PluginRows&) = delete;
     PluginRows& operator=(const PluginRows&) = delete;
-    // A few megabytes of floats a band: the decoders read scanline after scanline.
-    int preferred_band() const override { return std::clamp(int((1 << 20) / std::max(header.width, 1)), 16, 256); }
+    // Two megabytes of floats a band, at most 128 rows: the decoders read scanline after scanline.
+    int preferred_band() const override { return std::clamp(int((1 << 19) / std::max(header.width, 1)), 16, 128); }
     void read(int y0, int rows, float* out) override {
         char error[512] = {0};
         if (plugin_.read_rows(handle_, y0, rows, out, error, sizeof(error)) != 1) throw std::runtime_error(error);

@@ -61,6 +61,14 @@ void beside(bool one_thread, Side&& work, Main&& main) {
     if (side_error) std::rethrow_exception(side_error);
 }
 
+// What a streamed bake of `rows` holds: its state, and three bands of float
+// RGB (the two the reader and the reductions take turns with, and the
+// decoder's own). A 2K DWAB EXR (256-line blocks, bands of 512 rows) would
+// hold more than its whole float image (25 MB), so it is read whole.
+double stream_bytes(const BakeOptions& o, const BandSource& rows) {
+    return stream_state_bytes(o) + 3.0 * 12.0 * rows.width() * std::min(rows.height(), rows.preferred_band());
+}
+
 // The plan's options with what the file's reading found odd (the result's first warnings).
 BakeOptions with_reader_warnings(const BakeOptions& plan_options, const std::vector<std::string>& warnings) {
     BakeOptions o = plan_options;
@@ -101,13 +109,13 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     const bool one_thread = plan.bake.threads == 1 || !regular;
     // A file whose bake needs no whole source is decoded in bands and
     // reduced as it goes (issue 28): its memory does not grow with the file.
-    // (EXR, PNG, JPEG, Radiance HDR, PFM: io::open_rows;
-    // when its bins would not take more memory than the source's floats.)
+    // (EXR, PNG, JPEG, Radiance HDR, PFM: io::open_rows; when its state and
+    // bands, stream_bytes(), would not take more memory than the source's floats.)
     std::unique_ptr<FileRows> streamed;
     if (regular && whole_source_reason(plan.bake).empty()) {
         if (auto reader = io::open_rows(source_path))  // refuses what read_image refuses, before any pixel
             streamed = std::make_unique<FileRows>(std::move(reader));
-        if (streamed && stream_state_bytes(plan.bake) >= 12.0 * streamed->width() * streamed->height())
+        if (streamed && stream_bytes(plan.bake, *streamed) >= 12.0 * streamed->width() * streamed->height())
             streamed.reset();
     }
     if (streamed) {
