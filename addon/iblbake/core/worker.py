@@ -324,14 +324,9 @@ def lower_priority(all_threads=False):
     software OpenGL, threads that wake and wait on each other many times a
     frame) took half as long again while an 8K image baked; SCHED_IDLE
     yields the core at once. Either is only a priority: an idle machine's
-    cores are all the bake's. all_threads: every thread the process has
-    already (a child Blender's), not only this one."""
-    try:
-        os.nice(NICE)
-    except OSError:
-        pass
-    if not (hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_IDLE")):
-        return
+    cores are all the bake's. Linux keeps both per thread: all_threads
+    lowers every thread the process has already (numpy's BLAS starts its
+    own when imported; a child Blender has many), not only this one."""
     tids = [0]
     if all_threads:
         try:
@@ -340,14 +335,19 @@ def lower_priority(all_threads=False):
             pass
     for tid in tids:
         try:
-            os.sched_setscheduler(tid, os.SCHED_IDLE, os.sched_param(0))
+            os.setpriority(os.PRIO_PROCESS, tid, max(NICE, os.getpriority(os.PRIO_PROCESS, tid)))
         except OSError:
             pass
+        if hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_IDLE"):
+            try:
+                os.sched_setscheduler(tid, os.SCHED_IDLE, os.sched_param(0))
+            except OSError:
+                pass
 
 
 def child_main(tmp: str):
     """The child process: nice, then the Work of tmp/job.json; its outcome in tmp/result.json."""
-    lower_priority()  # before any thread exists: TBB's and OpenEXR's threads inherit it
+    lower_priority(all_threads=True)  # TBB's and OpenEXR's threads, made later, inherit it
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C in Blender's terminal is Blender's
     with open(os.path.join(tmp, "job.json")) as f:
         job = json.load(f)
