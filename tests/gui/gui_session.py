@@ -99,6 +99,14 @@ class Pulse:
 PULSE = Pulse()
 
 
+def proc_stat(path):
+    """(name, fields after the name) of a /proc/PID[/task/TID]/stat file:
+    fields[k] is proc(5)'s field k + 3 (the name may hold spaces and parentheses)."""
+    with open(path) as f:
+        stat = f.read()
+    return stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+
+
 def cpu_ticks():
     """{(pid, tid): (process name, thread name, clock ticks on a CPU)} of every
     thread on the host, from /proc: who used the CPU between two calls."""
@@ -114,12 +122,10 @@ def cpu_ticks():
             continue
         for tid in tids:
             try:
-                with open("/proc/%s/task/%s/stat" % (pid, tid)) as f:
-                    stat = f.read()
+                name, fields = proc_stat("/proc/%s/task/%s/stat" % (pid, tid))
             except OSError:
                 continue
-            name, rest = stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
-            out[(int(pid), int(tid))] = (proc, name, int(rest[11]) + int(rest[12]))  # utime + stime
+            out[(int(pid), int(tid))] = (proc, name, int(fields[11]) + int(fields[12]))  # utime + stime
     return out
 
 
@@ -353,15 +359,12 @@ def children_priorities():
         if not pid.isdigit():
             continue
         try:
-            with open("/proc/%s/stat" % pid) as f:
-                stat = f.read()
-            name = stat[stat.index("(") + 1:stat.rindex(")")]
-            if int(stat.rsplit(")", 1)[1].split()[1]) != me or name in ("import", "xdotool"):
+            name, fields = proc_stat("/proc/%s/stat" % pid)
+            if int(fields[1]) != me or name in ("import", "xdotool"):
                 continue  # the screenshots' and the key presses' are the test's
             seen = set()
             for tid in os.listdir("/proc/%s/task" % pid):
-                with open("/proc/%s/task/%s/stat" % (pid, tid)) as f:
-                    fields = f.read().rsplit(")", 1)[1].split()
+                fields = proc_stat("/proc/%s/task/%s/stat" % (pid, tid))[1]
                 seen.add("%s/%s" % (fields[38], fields[16]))
             out[name + " " + pid] = sorted(seen)
         except (OSError, ValueError, IndexError):

@@ -96,15 +96,8 @@ long long plugin_max_values(uintmax_t file_size) {
                                           std::max<uintmax_t>(file_size, 1) * (kMaxExpansion / sizeof(float)));
 }
 
-RawPixels read_with_plugin(const std::string& path, const std::string& format, uintmax_t file_size) {
-    const Plugin& p = plugin();
-    if (!p.read) detail::fail_reading(path, p.error);
-    detail::IblbakeOiioImage img{};
-    char error[512] = {0};
-    const long long max_values = plugin_max_values(file_size);
-    const int rc = p.read(path.c_str(), format.c_str(), kMaxSourceSide, max_values, &img, error, sizeof(error));
-    if (rc == 2) detail::check_declared(img.width, img.height, img.channels, file_size);  // throws
-    if (rc != 1) detail::fail_reading(path, error);
+// What the plugin says of an image, its pixels aside.
+RawPixels header_of(const detail::IblbakeOiioImage& img) {
     RawPixels raw;
     raw.width = img.width;
     raw.height = img.height;
@@ -117,6 +110,19 @@ RawPixels read_with_plugin(const std::string& path, const std::string& format, u
     raw.is_float = img.is_float != 0;
     raw.colorspace = img.colorspace;
     raw.format = img.format;
+    return raw;
+}
+
+RawPixels read_with_plugin(const std::string& path, const std::string& format, uintmax_t file_size) {
+    const Plugin& p = plugin();
+    if (!p.read) detail::fail_reading(path, p.error);
+    detail::IblbakeOiioImage img{};
+    char error[512] = {0};
+    const long long max_values = plugin_max_values(file_size);
+    const int rc = p.read(path.c_str(), format.c_str(), kMaxSourceSide, max_values, &img, error, sizeof(error));
+    if (rc == 2) detail::check_declared(img.width, img.height, img.channels, file_size);  // throws
+    if (rc != 1) detail::fail_reading(path, error);
+    RawPixels raw = header_of(img);
     raw.data.assign(img.data, img.data + size_t(img.width) * img.height * img.channels);
     p.release(img.data);
     return raw;
@@ -375,13 +381,7 @@ std::string checked_format(const std::string& path, uintmax_t& size) {
 class PluginRows final : public detail::RawRows {
 public:
     PluginRows(const Plugin& p, void* handle, const detail::IblbakeOiioImage& h) : plugin_(p), handle_(handle) {
-        header.width = h.width;
-        header.height = h.height;
-        header.channels = h.channels;
-        header.alpha_channel = h.alpha_channel;
-        header.is_float = h.is_float != 0;
-        header.colorspace = h.colorspace;
-        header.format = h.format;
+        header = header_of(h);
     }
     ~PluginRows() override { plugin_.close_rows(handle_); }
     PluginRows(const PluginRows&) = delete;

@@ -45,6 +45,25 @@ struct JpegOut {
     std::vector<unsigned char> buffer;
 };
 
+// libjpeg's errors and warnings through ErrorManager (jpeg_fail, jpeg_message).
+void use_errors(jpeg_decompress_struct& cinfo, ErrorManager& err) {
+    cinfo.err = jpeg_std_error(&err.pub);
+    err.pub.error_exit = jpeg_fail;
+    err.pub.emit_message = jpeg_message;
+}
+
+// The header of a JPEG as read (grey or RGB, 8-bit sRGB).
+RawPixels jpeg_header(const JpegOut& o) {
+    RawPixels out;
+    out.format = "jpeg";
+    out.width = int(o.w);
+    out.height = int(o.h);
+    out.channels = o.channels;
+    out.is_float = false;
+    out.colorspace = "sRGB";
+    return out;
+}
+
 // The decompressor's creation (it fails only out of memory), in a frame of its own.
 bool jpeg_create_core(jpeg_decompress_struct* cinfo, ErrorManager* err) {
     if (setjmp(err->jump)) return false;
@@ -100,9 +119,7 @@ RawPixels read_jpeg(const std::string& path, uintmax_t file_size) {
     if (!f) throw std::runtime_error("cannot open the file");
     jpeg_decompress_struct cinfo{};
     ErrorManager err{};
-    cinfo.err = jpeg_std_error(&err.pub);
-    err.pub.error_exit = jpeg_fail;
-    err.pub.emit_message = jpeg_message;
+    use_errors(cinfo, err);
     JpegOut o;
     std::string why;
     bool ok = false;
@@ -115,15 +132,9 @@ RawPixels read_jpeg(const std::string& path, uintmax_t file_size) {
     }
     jpeg_destroy_decompress(&cinfo);
     if (!ok) throw std::runtime_error("JPEG " + why);
-    RawPixels out;
-    out.format = "jpeg";
-    out.width = int(o.w);
-    out.height = int(o.h);
-    out.channels = o.channels;
-    out.is_float = false;
-    out.colorspace = "sRGB";
+    RawPixels out = jpeg_header(o);
     out.data.resize(o.buffer.size());
-    for (size_t k = 0; k < o.buffer.size(); ++k) out.data[k] = float(o.buffer[k]) * (1.0f / 255.0f);
+    integers_to_float(o.buffer.data(), o.buffer.size(), 1, out.data.data());
     return out;
 }
 
@@ -146,7 +157,7 @@ bool jpeg_rows_core(jpeg_decompress_struct* cinfo, ErrorManager* err, unsigned c
 
 // A JPEG's scanlines in order (a row before the last one read opens the file
 // again and skips to it).
-class JpegRows final : public RawRows {
+class JpegRows final : public SequentialRows {
 public:
     JpegRows(std::string path, uintmax_t file_size) : path_(std::move(path)), file_size_(file_size) {
         try {
@@ -160,43 +171,34 @@ public:
     JpegRows(const JpegRows&) = delete;
     JpegRows& operator=(const JpegRows&) = delete;
 
-    int preferred_band() const override { return 64; }
-    void read(int y0, int rows, float* out) override {
-        if (y0 < next_) {
-            close();
-            open();
-        }
+private:
+    void restart() override {
+        close();
+        open();
+    }
+    void take(int n) override {
         const size_t stride = size_t(o_.w) * o_.channels;
-        while (next_ < y0) take(std::min(64, y0 - next_), stride);
-        for (int done = 0; done < rows;) {
-            const int n = std::min(64, rows - done);
-            take(n, stride);
-            float* dst = out + size_t(done) * stride;
-            for (size_t k = 0; k < stride * size_t(n); ++k) dst[k] = float(buffer_[k]) * (1.0f / 255.0f);
-            done += n;
-        }
+        buffer_.resize(stride * size_t(n));
+        std::string why;
+        if (!jpeg_rows_core(&cinfo_, &err_, buffer_.data(), stride, n, &why)) throw std::runtime_error("JPEG " + why);
+        next_ += n;
+    }
+    void to_float(int n, float* out) const override {
+        integers_to_float(buffer_.data(), size_t(n) * o_.w * o_.channels, 1, out);
     }
 
-private:
     void open() {
         f_ = std::fopen(path_.c_str(), "rb");
         if (!f_) throw std::runtime_error("cannot open the file");
         cinfo_ = jpeg_decompress_struct{};
         err_ = ErrorManager{};
-        cinfo_.err = jpeg_std_error(&err_.pub);
-        err_.pub.error_exit = jpeg_fail;
-        err_.pub.emit_message = jpeg_message;
+        use_errors(cinfo_, err_);
         if (!jpeg_create_core(&cinfo_, &err_)) throw std::runtime_error("libjpeg could not start");
         created_ = true;
         std::string why;
         if (!jpeg_open_core(&cinfo_, &err_, &o_, f_, file_size_, &why)) throw std::runtime_error("JPEG " + why);
         next_ = 0;
-        header.format = "jpeg";
-        header.width = int(o_.w);
-        header.height = int(o_.h);
-        header.channels = o_.channels;
-        header.is_float = false;
-        header.colorspace = "sRGB";
+        header = jpeg_header(o_);
     }
     void close() {
         if (created_) jpeg_destroy_decompress(&cinfo_);
@@ -204,13 +206,6 @@ private:
         if (f_) std::fclose(f_);
         f_ = nullptr;
     }
-    void take(int n, size_t stride) {
-        buffer_.resize(stride * size_t(n));
-        std::string why;
-        if (!jpeg_rows_core(&cinfo_, &err_, buffer_.data(), stride, n, &why)) throw std::runtime_error("JPEG " + why);
-        next_ += n;
-    }
-
     std::string path_;
     uintmax_t file_size_;
     std::FILE* f_ = nullptr;
@@ -218,7 +213,6 @@ private:
     ErrorManager err_{};
     bool created_ = false;
     JpegOut o_;
-    int next_ = 0;
     std::vector<unsigned char> buffer_;
 };
 }  // namespace

@@ -92,11 +92,23 @@ bool png_read_core(png_structp png, png_infop info, ReadState* st, PngOut* o, FI
     png_read_end(png, nullptr);
     return true;
 }
+
+// The header of a PNG as read (transformed to 8- or 16-bit grey, RGB or RGBA).
+RawPixels png_header(const PngOut& o) {
+    RawPixels out;
+    out.format = "png";
+    out.width = int(o.w);
+    out.height = int(o.h);
+    out.channels = o.channels;
+    out.alpha_channel = o.channels == 2 || o.channels == 4 ? o.channels - 1 : -1;
+    out.straight_alpha = out.alpha_channel >= 0;  // PNG's alpha is never premultiplied
+    out.is_float = false;
+    out.colorspace = o.linear ? "linear" : "sRGB";
+    return out;
+}
 }  // namespace
 
-namespace {
-// 8- or 16-bit values (host order) as floats in [0, 1], as read_png() makes them.
-void png_to_float(const unsigned char* in, size_t values, int bytes, float* out) {
+void integers_to_float(const unsigned char* in, size_t values, int bytes, float* out) {
     if (bytes == 2) {
         for (size_t k = 0; k < values; ++k) {
             uint16_t v;
@@ -108,7 +120,6 @@ void png_to_float(const unsigned char* in, size_t values, int bytes, float* out)
     }
 }
 
-}  // namespace
 
 RawPixels read_png(const std::string& path, uintmax_t file_size, const std::function<void(double)>& progress) {
     std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
@@ -126,18 +137,10 @@ RawPixels read_png(const std::string& path, uintmax_t file_size, const std::func
     if (!png || !info) throw std::runtime_error("libpng could not start");
     PngOut o;
     if (!png_read_core(png, info, &st, &o, f.get(), file_size, &progress)) throw std::runtime_error("PNG " + st.error);
-    RawPixels out;
-    out.format = "png";
-    out.width = int(o.w);
-    out.height = int(o.h);
-    out.channels = o.channels;
-    out.alpha_channel = o.channels == 2 || o.channels == 4 ? o.channels - 1 : -1;
-    out.straight_alpha = out.alpha_channel >= 0;  // PNG's alpha is never premultiplied
-    out.is_float = false;
-    out.colorspace = o.linear ? "linear" : "sRGB";
+    RawPixels out = png_header(o);
     std::vector<png_bytep>().swap(o.rows);
     out.data.resize(size_t(o.w) * o.h * o.channels);
-    png_to_float(o.buffer.data(), out.data.size(), o.bytes, out.data.data());
+    integers_to_float(o.buffer.data(), out.data.size(), o.bytes, out.data.data());
     return out;
 }
 
@@ -153,7 +156,7 @@ bool png_rows_core(png_structp png, ReadState* st, png_bytepp rows_at, png_uint_
 
 // A non-interlaced PNG, rows in order (a row before the last one read opens
 // the file again and skips to it).
-class PngRows final : public RawRows {
+class PngRows final : public SequentialRows {
 public:
     PngRows(std::string path, uintmax_t file_size) : path_(std::move(path)), file_size_(file_size) {
         try {
@@ -168,27 +171,26 @@ public:
     PngRows& operator=(const PngRows&) = delete;
 
     bool interlaced() const { return passes_ > 1; }
-    int preferred_band() const override { return 64; }
-    void read(int y0, int rows, float* out) override {
-        if (y0 < next_) {
-            close();
-            open();
-        }
-        const size_t stride = size_t(o_.w) * o_.channels * o_.bytes;
-        while (next_ < y0) {  // skipped rows
-            const png_uint_32 n = png_uint_32(std::min(64, y0 - next_));
-            take(n, stride);
-        }
-        for (int done = 0; done < rows;) {
-            const int n = std::min(64, rows - done);
-            take(png_uint_32(n), stride);
-            png_to_float(buffer_.data(), size_t(n) * o_.w * o_.channels, o_.bytes,
-                         out + size_t(done) * o_.w * o_.channels);
-            done += n;
-        }
-    }
 
 private:
+    void restart() override {
+        close();
+        open();
+    }
+    // The next n rows into buffer_ (the file's end checked after its last row).
+    void take(int n) override {
+        const size_t stride = size_t(o_.w) * o_.channels * o_.bytes;
+        buffer_.resize(stride * size_t(n));
+        row_at_.resize(size_t(n));
+        for (int k = 0; k < n; ++k) row_at_[k] = buffer_.data() + size_t(k) * stride;
+        if (!png_rows_core(png_, &st_, row_at_.data(), png_uint_32(n), next_ + n == int(o_.h)))
+            throw std::runtime_error("PNG " + st_.error);
+        next_ += n;
+    }
+    void to_float(int n, float* out) const override {
+        integers_to_float(buffer_.data(), size_t(n) * o_.w * o_.channels, o_.bytes, out);
+    }
+
     void open() {
         f_ = std::fopen(path_.c_str(), "rb");
         if (!f_) throw std::runtime_error("cannot open the file");
@@ -197,14 +199,7 @@ private:
         if (!png_ || !info_) throw std::runtime_error("libpng could not start");
         if (!png_open_core(png_, info_, &st_, &o_, f_, file_size_, &passes_)) throw std::runtime_error("PNG " + st_.error);
         next_ = 0;
-        header.format = "png";
-        header.width = int(o_.w);
-        header.height = int(o_.h);
-        header.channels = o_.channels;
-        header.alpha_channel = o_.channels == 2 || o_.channels == 4 ? o_.channels - 1 : -1;
-        header.straight_alpha = header.alpha_channel >= 0;  // PNG's alpha is never premultiplied
-        header.is_float = false;
-        header.colorspace = o_.linear ? "linear" : "sRGB";
+        header = png_header(o_);
     }
     void close() {
         if (png_) png_destroy_read_struct(&png_, &info_, nullptr);
@@ -212,16 +207,6 @@ private:
         if (f_) std::fclose(f_);
         f_ = nullptr;
     }
-    // The next n rows into buffer_ (the file's end checked after its last row).
-    void take(png_uint_32 n, size_t stride) {
-        buffer_.resize(stride * n);
-        row_at_.resize(n);
-        for (png_uint_32 k = 0; k < n; ++k) row_at_[k] = buffer_.data() + k * stride;
-        if (!png_rows_core(png_, &st_, row_at_.data(), n, next_ + int(n) == int(o_.h)))
-            throw std::runtime_error("PNG " + st_.error);
-        next_ += int(n);
-    }
-
     std::string path_;
     uintmax_t file_size_;
     FILE* f_ = nullptr;
@@ -229,7 +214,7 @@ private:
     png_infop info_ = nullptr;
     ReadState st_;
     PngOut o_;
-    int passes_ = 1, next_ = 0;
+    int passes_ = 1;
     std::vector<unsigned char> buffer_;
     std::vector<png_bytep> row_at_;
 };

@@ -1,6 +1,7 @@
 // What a file reader hands to read_image() before the shared finishing
 // (display window, channel choice, sRGB decode). Private to io/.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -36,6 +37,36 @@ public:
     // Rows y0 .. y0 + rows - 1 into out: rows x width x channels floats.
     virtual void read(int y0, int rows, float* out) = 0;
 };
+// A decoder that gives its rows in order (libpng, libjpeg): read() starts it
+// again for a row before the next one, skips to y0, and takes at most 64
+// rows at a time.
+class SequentialRows : public RawRows {
+public:
+    int preferred_band() const override { return kStep; }
+    void read(int y0, int rows, float* out) final {
+        if (y0 < next_) restart();
+        while (next_ < y0) take(std::min(kStep, y0 - next_));
+        const size_t row_values = size_t(header.width) * header.channels;
+        for (int done = 0; done < rows;) {
+            const int n = std::min(kStep, rows - done);
+            take(n);
+            to_float(n, out + size_t(done) * row_values);
+            done += n;
+        }
+    }
+
+protected:
+    static constexpr int kStep = 64;
+    int next_ = 0;  // the next row the decoder gives
+    // The decoder at row 0 again (next_ = 0).
+    virtual void restart() = 0;
+    // The next n rows decoded into the decoder's buffer (next_ += n).
+    virtual void take(int n) = 0;
+    // The n rows taken last, as floats in [0, 1].
+    virtual void to_float(int n, float* out) const = 0;
+};
+// 8- or 16-bit values (host order) as floats in [0, 1], as read_image makes them (png_file.cpp).
+void integers_to_float(const unsigned char* in, size_t values, int bytes, float* out);
 // A PNG's rows (null for an interlaced one: every pass covers every row) and a JPEG's.
 std::unique_ptr<RawRows> png_rows(const std::string& path, uintmax_t file_size);
 std::unique_ptr<RawRows> jpeg_rows(const std::string& path, uintmax_t file_size);
