@@ -224,7 +224,7 @@ std::optional<json> intact_manifest(const fs::path& dir) {
             return std::nullopt;
         }
     }
-    return m;
+    return std::optional<json>(std::in_place, m);  // not `return m;`: GCC 16 finds it ambiguous (json's own conversions)
 }
 
 namespace {
