@@ -936,12 +936,79 @@ private:
     int k_ = 0, next_y_ = 0, have0_ = 0, have1_ = -1;
 };
 
+// What a streamed pass reduces each band into: the summary (SummaryStream),
+// the hot texels (HotStream), the finest bins' rows (BinRowStream; a second
+// one at the irradiance's own bins when the tree's are too coarse for it)
+// and mip 0's lookups (MirrorStream).
+struct BandReducers {
+    BandReducers(SourceBake& b, int w, int h) : sums(w, h) {
+        if (b.want_irr) hots = std::make_unique<HotStream>(w, h, b.o.max_hot);
+        need_tree = b.r1 > 0.0;
+        b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
+        if (need_tree) bins = std::make_unique<BinRowStream>(w, h, b.finest_bins);
+        if (b.want_irr && !b.irr_from_tree) irr_bins = std::make_unique<BinRowStream>(w, h, b.o.irradiance_bins);
+        size_t mirror_jobs = 0;
+        for (const LevelJob& job : b.jobs) mirror_jobs += job.roughness == 0.0;
+        mirrors.reserve(mirror_jobs);  // the streams hold references
+        for (const LevelJob& job : b.jobs)
+            if (job.roughness == 0.0) {
+                mirrors.emplace_back(job.face_size, Uninitialized{});  // every texel written
+                mirror_streams.push_back(std::make_unique<MirrorStream>(mirrors.back(), w, h));
+            }
+    }
+    // Rows above a band the bin rows still need (their reach).
+    int reach() const {
+        int r = 1;
+        for (const auto* s : {bins.get(), irr_bins.get()})
+            if (s) r = std::max(r, s->max_reach());
+        return r;
+    }
+    void add(BandRing& ring, float* const* rows, int y0, int n) {
+        sums.add_rows(rows, y0, n);
+        if (hots) hots->add_rows(rows, y0, n);
+        const ImageView v = ring.view();
+        for (auto* s : {bins.get(), irr_bins.get()})
+            if (s) s->add_rows(v, ring.have0(), ring.have1());
+        for (auto& m : mirror_streams) m->add_rows(v, ring.have0(), ring.have1());
+    }
+    void check_finished() const {
+        for (const auto* s : {bins.get(), irr_bins.get()})
+            if (s && s->pending() != 0) throw std::logic_error("streamed bake: bin rows left unreduced");
+        for (const auto& m : mirror_streams)
+            if (m->pending() != 0) throw std::logic_error("streamed bake: mip 0 texels left unread");
+    }
+
+    SummaryStream sums;
+    std::unique_ptr<HotStream> hots;
+    bool need_tree = false;
+    std::unique_ptr<BinRowStream> bins, irr_bins;
+    std::vector<Cubemap> mirrors;
+    std::vector<std::unique_ptr<MirrorStream>> mirror_streams;
+};
+
+// The pass over the source's bands, two buffers deep (a reader thread
+// decodes band k+1 while band k is reduced).
+void read_bands(SourceBake& b, BandSource& src, BandReducers& red) {
+    const int h = src.height();
+    const int reach = red.reach();
+    const int keep = std::max(1, reach - 1);
+    const int band = std::max({src.preferred_band(), reach, keep + 1, 16});
+    BandRing ring(src, band, keep, b.o.threads != 1);
+    std::vector<float*> rows;
+    int y0 = 0, n = 0;
+    while (ring.next(rows, y0, n)) {
+        red.add(ring, rows.data(), y0, n);
+        ring.done();
+        // The last band's value is exactly where advance() puts b.done after the pass (no rounding backwards).
+        b.report("reading source", y0 + n == h ? b.done + 0.05 / b.w_total
+                                               : b.done + 0.05 / b.w_total * double(y0 + n) / h);
+    }
+}
+
 // scan() .. bin_tree() for a source read in bands (compute_bake_stream):
-// each band cleaned and summarized (SummaryStream), its hot texels kept
-// (HotStream), the finest bins' rows reduced (BinRowStream) and mip 0's
-// lookups made (MirrorStream), then what needs the whole source's sums (the
-// strict check, the mean, the hot threshold, the tree). False when the
-// overflow guard is needed (nothing handed to the sink yet).
+// each band reduced as it comes (BandReducers), then what needs the whole
+// source's sums (the strict check, the mean, the hot threshold, the tree).
+// False when the overflow guard is needed (nothing handed to the sink yet).
 bool stream_front(SourceBake& b, BandSource& src) {
     BakeResult& r = b.r;
     const int w = src.width(), h = src.height();
@@ -950,53 +1017,11 @@ bool stream_front(SourceBake& b, BandSource& src) {
     aspect_warning(r, w, h);
     b.report("reading source", 0.0);
     plan_levels(b);
-    SummaryStream sums(w, h);
-    std::unique_ptr<HotStream> hots;
-    if (b.want_irr) hots = std::make_unique<HotStream>(w, h, b.o.max_hot);
-    // The tree's finest bins, and the irradiance's own when the tree's are too coarse for it.
-    const bool need_tree = b.r1 > 0.0;
-    b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
-    std::unique_ptr<BinRowStream> bins, irr_bins;
-    if (need_tree) bins = std::make_unique<BinRowStream>(w, h, b.finest_bins);
-    if (b.want_irr && !b.irr_from_tree) irr_bins = std::make_unique<BinRowStream>(w, h, b.o.irradiance_bins);
-    std::vector<Cubemap> mirrors;
-    std::vector<std::unique_ptr<MirrorStream>> mirror_streams;
-    size_t mirror_jobs = 0;
-    for (const LevelJob& job : b.jobs) mirror_jobs += job.roughness == 0.0;
-    mirrors.reserve(mirror_jobs);  // the streams hold references
-    for (const LevelJob& job : b.jobs)
-        if (job.roughness == 0.0) {
-            mirrors.emplace_back(job.face_size, Uninitialized{});  // every texel written
-            mirror_streams.push_back(std::make_unique<MirrorStream>(mirrors.back(), w, h));
-        }
-    int reach = 1;
-    for (const auto* s : {bins.get(), irr_bins.get()})
-        if (s) reach = std::max(reach, s->max_reach());
-    const int keep = std::max(1, reach - 1);
-    const int band = std::max({src.preferred_band(), reach, keep + 1, 16});
-    {
-        BandRing ring(src, band, keep, b.o.threads != 1);
-        std::vector<float*> rows;
-        int y0 = 0, n = 0;
-        while (ring.next(rows, y0, n)) {
-            sums.add_rows(rows.data(), y0, n);
-            if (hots) hots->add_rows(rows.data(), y0, n);
-            const ImageView v = ring.view();
-            for (auto* s : {bins.get(), irr_bins.get()})
-                if (s) s->add_rows(v, ring.have0(), ring.have1());
-            for (auto& m : mirror_streams) m->add_rows(v, ring.have0(), ring.have1());
-            ring.done();
-            // The last band's value is exactly where advance() below puts b.done (no rounding backwards).
-            b.report("reading source", y0 + n == h ? b.done + 0.05 / b.w_total
-                                                   : b.done + 0.05 / b.w_total * double(y0 + n) / h);
-        }
-    }
+    BandReducers red(b, w, h);
+    read_bands(b, src, red);
     b.advance(0.05);  // hot_split()'s share, done here
-    for (const auto* s : {bins.get(), irr_bins.get()})
-        if (s && s->pending() != 0) throw std::logic_error("streamed bake: bin rows left unreduced");
-    for (auto& m : mirror_streams)
-        if (m->pending() != 0) throw std::logic_error("streamed bake: mip 0 texels left unread");
-    b.summary = sums.finish();
+    red.check_finished();
+    b.summary = red.sums.finish();
     r.bad_input = b.summary.scan.bad;
     check_strict(r, b.o);
     b.scale_exp = overflow_guard_exponent(b.summary.scan.max_value);
@@ -1013,20 +1038,20 @@ bool stream_front(SourceBake& b, BandSource& src) {
     for (const LevelJob& job : b.jobs) {
         if (job.roughness != 0.0) continue;
         b.report("specular", b.done);
-        b.finish_level(job, std::move(mirrors[m++]), 1, "bilinear source lookup");
+        b.finish_level(job, std::move(red.mirrors[m++]), 1, "bilinear source lookup");
     }
     // hot_split()
-    if (b.want_irr) set_split(b, hots->finish(b.o.hot_threshold, b.summary.hot));
+    if (b.want_irr) set_split(b, red.hots->finish(b.o.hot_threshold, b.summary.hot));
     // bin_tree(), and the bins start_irradiance() takes the hot texels from
     // (reduce_rest_to_bins's reduction when the tree's do not serve).
-    if (irr_bins) b.irr_bins = irr_bins->take_bins();
-    if (!need_tree) return true;
+    if (red.irr_bins) b.irr_bins = red.irr_bins->take_bins();
+    if (!red.need_tree) return true;
     b.report("specular", b.done);
     r.specular_base_face = b.finest_bins;
     BinTreeOptions tree_options;
     tree_options.channel_mean = r.mean_radiance.data();
-    b.tree = bins->finish(r.mean_radiance.data(), b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins,
-                          tree_options);
+    b.tree = red.bins->finish(r.mean_radiance.data(), b.irr_from_tree ? &b.irr_bins : nullptr,
+                              b.o.irradiance_bins, tree_options);
     b.clock.done("bin_tree");
     return true;
 }
