@@ -6,7 +6,8 @@
       an HDRI file, set up as the world's Environment Texture -> DIR
   blender -b --factory-startup --python blender_scripts/bake_world.py -- --batch a.blend b.hdr DIR/ ... --out OUT
       each .blend file's world, or each image as a world -> OUT/<name>, with OUT/index.json and index.html
-      (--list FILE: sources from a file; --shard I/N: every N-th world, for a farm; docs/farm.md)
+      (--list FILE: sources from a file; --shard I/N: every N-th world, for a farm; docs/farm.md;
+      --jobs N: up to N worlds baked at once while Blender reads the next; a progress bar on a terminal)
 
 Exits 1 with the reason on stderr when any bake fails (a batch bakes the
 others first); an earlier bake in a folder survives a failed one. A bake
@@ -39,6 +40,16 @@ def finite(text):
         raise argparse.ArgumentTypeError("must be a finite number, got %r" % text)
     if not math.isfinite(v):
         raise argparse.ArgumentTypeError("must be a finite number, got %s" % text)
+    return v
+
+
+def positive_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("must be a whole number, got %r" % text)
+    if not 1 <= v <= 64:
+        raise argparse.ArgumentTypeError("must be 1 to 64, got %d" % v)
     return v
 
 
@@ -80,6 +91,8 @@ def parse_args(argv):
     p.add_argument("--list", action="append", metavar="FILE",
                    help="--batch: a file naming sources, one a line ('#' comments); repeatable")
     p.add_argument("--shard", metavar="I/N", default="", help="--batch: bake worlds I, I+N, ... (0 <= I < N)")
+    p.add_argument("--jobs", type=positive_int, default=1,
+                   help="--batch: bake up to N worlds at once while Blender reads the next (default 1)")
     p.add_argument("--scene", help="scene to bake (default: the active one)")
     p.add_argument("--strength", type=finite, default=1.0, help="--hdri/--batch images: Background Strength")
     p.add_argument("--rotation-z", type=finite, default=0.0, help="--hdri/--batch images: Mapping rotation, degrees")
@@ -105,8 +118,8 @@ def parse_args(argv):
         p.add_argument(flag, dest=name, type=option_arg(row),
                        help="%s%s (default %s)" % (row["help"], names, default or "none"), **extra)
     args = p.parse_args(argv)
-    if (args.list or args.shard) and args.batch is None:
-        raise Usage("--list and --shard go with --batch")
+    if (args.list or args.shard or args.jobs != 1) and args.batch is None:
+        raise Usage("--list, --shard and --jobs go with --batch")
     if args.batch == [] and not args.list:
         raise Usage("--batch needs files or folders, or --list FILE")
     for row in table.rows():  # a list given several times: one list
@@ -178,13 +191,19 @@ def configure(scene, args, out_dir: str, image_only: bool):
     props.output_dir = os.path.abspath(out_dir)
 
 
-def bake_scene(args, out_dir: str, image=None):
+def chosen_scene(args, out_dir: str, image=None):
+    """The scene to bake, its world set to `image` when given, configured."""
     scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
     if scene is None:
         raise RuntimeError("no scene named %r" % args.scene)
     if image is not None:
         scene.world = hdri_world(image, args.strength, args.rotation_z)
     configure(scene, args, out_dir, image is not None)
+    return scene
+
+
+def bake_scene(args, out_dir: str, image=None):
+    scene = chosen_scene(args, out_dir, image)
     override = {} if args.presets is None else {"override_presets": True, "presets": ",".join(args.presets)}
     with bpy.context.temp_override(scene=scene):
         result = bpy.ops.iblbake.bake(**override)
@@ -203,19 +222,39 @@ def run_batch(args):
     if args.preview is None:
         args.preview = True  # the index's gallery shows each world's preview sheet
 
+    operators = addon_module("operators")
+
     def bake_one(world):
+        """Blender's half on this thread (open the file or make the image's
+        world, read or render it); returns the bake's bpy-free rest."""
         item = world["source"]
+        image = None
         if item.lower().endswith(batch.BLEND_SUFFIX):
             if not os.path.isfile(item):
                 raise RuntimeError("no .blend file at %s" % item)
             bpy.ops.wm.open_mainfile(filepath=os.path.abspath(item))
-            return bake_scene(args, os.path.join(args.out, world["name"]))
-        bpy.ops.wm.read_homefile(use_empty=True)
-        return bake_scene(args, os.path.join(args.out, world["name"]), image=item)
+        else:
+            bpy.ops.wm.read_homefile(use_empty=True)
+            image = item
+        scene = chosen_scene(args, os.path.join(args.out, world["name"]), image)
+        try:
+            with bpy.context.temp_override(scene=scene):
+                run = operators.headless_bake(bpy.context, scene, args.presets)
+        except Exception as e:
+            raise RuntimeError(str(operators._words(e)))
+
+        def finish(progress):
+            try:
+                report = run(progress)
+            except Exception as e:
+                raise RuntimeError(str(operators._words(e)))
+            return report.status, report.content_hash
+        return finish
 
     start = time.perf_counter()
     worlds = batch.worlds(args.batch, args.list or [], args.shard)
-    entries = batch.run(worlds, args.out, bake_one, args.shard, log=lambda line: print("iblbake: " + line, flush=True))
+    entries = batch.run(worlds, args.out, bake_one, args.shard, log=lambda line: print("iblbake: " + line, flush=True),
+                        jobs=args.jobs, tty=sys.stderr.isatty())
     count = {s: sum(e["status"] == s for e in entries) for s in ("baked", "unchanged", "failed")}
     print("iblbake: batch: %(baked)d baked, %(unchanged)d unchanged, %(failed)d failed" % count
           + " of %d worlds in %.1f s" % (len(entries), time.perf_counter() - start), flush=True)

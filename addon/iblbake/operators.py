@@ -47,6 +47,28 @@ def prepare(context, scene):
     return settings, needs, source, pixels, extra
 
 
+def headless_bake(context, scene, presets=None):
+    """A script's bake in two halves. This one reads the world on the main
+    thread (bpy) and returns the other, run(progress) -> BakeReport, which
+    touches no bpy, so a batch may run it on another thread while Blender
+    reads the next world (bake_world.py --batch --jobs). run replaces the
+    folder's earlier bake, as scripts expect, and prints what went.
+    presets: a list of names in place of the scene's engine presets."""
+    settings, needs, source, pixels, extra = prepare(context, scene)
+    if presets is not None:
+        settings.presets = presets
+
+    def run(progress=None):
+        old = folder.read_folder(settings.out_dir)
+        report = pipeline.bake(source, pixels, settings, needs, progress, extra)
+        if old is not None and report.status == "baked":
+            gone = folder.losses(old, folder.outputs_of_manifest(report.manifest), source)
+            if gone:
+                print("iblbake: replaced the earlier bake in %s: %s" % (report.out_dir, "; ".join(gone)), flush=True)
+        return report
+    return run
+
+
 def replacing(settings, needs, source):
     """(the folder's bake or None, what a bake of these settings would remove from it: sentences)."""
     old = folder.read_folder(settings.out_dir)
@@ -117,12 +139,9 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         scene = context.scene
         progress = _print_stages if bpy.app.background else None
         start = time.perf_counter()
+        presets = [n.strip() for n in self.presets.split(",") if n.strip()] if self.override_presets else None
         try:
-            settings, needs, source, pixels, extra = prepare(context, scene)
-            if self.override_presets:
-                settings.presets = [n.strip() for n in self.presets.split(",") if n.strip()]
-            old = folder.read_folder(settings.out_dir)
-            report = pipeline.bake(source, pixels, settings, needs, progress, extra)
+            report = headless_bake(context, scene, presets)(progress)
         except OUR_ERRORS as e:
             return self._fail(scene.name, e)
         except native.load().Cancelled:
@@ -130,10 +149,6 @@ class IBLBAKE_OT_bake(bpy.types.Operator):
         except Exception as e:  # anything else still reaches the user as a message
             return self._fail(scene.name, _words(e))
         report.seconds = time.perf_counter() - start
-        if old is not None and report.status == "baked":  # scripts expect the folder replaced: say what went
-            gone = folder.losses(old, folder.outputs_of_manifest(report.manifest), source)
-            if gone:
-                print("iblbake: replaced the earlier bake in %s: %s" % (report.out_dir, "; ".join(gone)), flush=True)
         return self._baked(scene.name, report)
 
     # -- the UI: asks first, then a modal job --------------------------------

@@ -532,6 +532,64 @@ def test_headless_bakes_replace_the_folder_and_print_what_went(tmp_path):
     assert "iblbake: replaced the earlier bake in %s: the bake of forest.exr (" % out in p.stdout, p.stdout
 
 
+def run_on_a_terminal(args, timeout=600):
+    """blender -b --factory-startup ARGS with a pseudo-terminal as stdout and
+    stderr: (exit code, what it printed)."""
+    import pty
+    import select
+    import time
+    from blender_helpers import blender_env
+    pid, fd = pty.fork()
+    if pid == 0:
+        os.execve(BLENDER, [BLENDER, "-b", "--factory-startup", *args], blender_env())
+    out, end = b"", time.monotonic() + timeout
+    while time.monotonic() < end:
+        if select.select([fd], [], [], 0.5)[0]:
+            try:
+                chunk = os.read(fd, 65536)
+            except OSError:
+                break
+            if not chunk:
+                break
+            out += chunk
+    _, status = os.waitpid(pid, 0)
+    os.close(fd)
+    return os.waitstatus_to_exitcode(status), out.decode("utf-8", "replace")
+
+
+def test_batch_jobs_and_the_bar(tmp_path):
+    """bake_world.py --batch --jobs 2: Blender reads the next world while
+    the last one bakes; every file is the one --jobs 1 writes, the index keeps
+    the worlds' order, and on a terminal a bar shows worlds done, the
+    current world's stage, rate and ETA, a failure kept as a line."""
+    studio = "/usr/share/blender/datafiles/studiolights/world/"
+    names = ["forest", "city", "sunset", "night"]
+    if not all(os.path.isfile(studio + n + ".exr") for n in names):
+        pytest.skip("Blender's studio lights are not installed")
+    worlds = [studio + n + ".exr" for n in names] + [str(tmp_path / "missing.exr")]
+    opts = ["--face-size", "32", "--lut-size", "16", "--irradiance-size", "8"]
+    p = bake_world("--batch", *worlds, "--out", str(tmp_path / "one"), *opts)
+    assert p.returncode == 1 and "[5/5] failed missing: no image file at" in p.stdout, p.stdout + p.stderr
+    code, text = run_on_a_terminal(["--python", BAKE_WORLD, "--", "--batch", *worlds, "--out", str(tmp_path / "two"),
+                                    "--jobs", "2", *opts])
+    assert code == 1, text
+    assert "\r[" in text and "\033[K" in text and "/5 " in text and "ETA " in text and "worlds/min" in text, text
+    assert any(": %s" % s in text for s in ("starting", "hashing", "specular", "writing")), text
+    assert "failed missing: no image file at" in text
+    for run in ("one", "two"):
+        with open(tmp_path / run / "index.json") as f:
+            assert [(w["name"], w["status"]) for w in json.load(f)["worlds"]] == [
+                (n, "baked") for n in names] + [("missing", "failed")]
+    for n in names:
+        a, b = tmp_path / "one" / n, tmp_path / "two" / n
+        files = sorted(f for f in os.listdir(a) if f != "manifest.json")
+        assert files == sorted(f for f in os.listdir(b) if f != "manifest.json")
+        for f in files:
+            if os.path.isfile(a / f):
+                assert (a / f).read_bytes() == (b / f).read_bytes(), (n, f)
+        assert manifest(a)["blender"]["content_hash"] == manifest(b)["blender"]["content_hash"]
+
+
 SUNSET = "/usr/share/blender/datafiles/studiolights/world/sunset.exr"
 # Rendered Nishita skies are kept here between runs (half a minute each on 2 cores).
 SUN_CACHE = os.environ.get("IBLBAKE_TEST_CACHE", os.path.join(os.path.expanduser("~"), ".cache", "iblbake-tests"))

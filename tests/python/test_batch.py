@@ -323,3 +323,68 @@ def test_hostile_world_folders(lib):
     assert (out / "alpha" / "notes.txt").read_text() == "mine"
     assert w["gamma"]["status"] == "failed"
     assert os.path.exists(str(out / "gamma" / "manifest.json"))
+
+
+def test_the_addons_batch_overlaps_worlds_and_draws_the_bar(lib, tmp_path):
+    """core/batch.py with jobs=2: bake_one (Blender's half, this thread)
+    returns the bake's rest, which runs on a worker while the next world is
+    prepared; at most two worlds are held; the index keeps the worlds' order
+    whatever order they end in; on a terminal a bar (worlds done, the current
+    world's stage, rate, ETA) with failures kept as lines, else plain lines."""
+    import io
+    import sys
+    import threading
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "addon"))
+    from iblbake.core import batch
+    items = [{"source": "/x/w%d.exr" % k, "name": "w%d" % k} for k in range(6)]
+    lock = threading.Lock()
+    held, most, overlapped = [0], [0], threading.Event()
+    release = {k: threading.Event() for k in range(6)}
+
+    def bake_one(world):
+        k = int(world["name"][1:])
+        with lock:
+            held[0] += 1
+            most[0] = max(most[0], held[0])
+        if k == 3:
+            with lock:
+                held[0] -= 1
+            raise RuntimeError("no pixels")
+
+        def finish(progress):
+            progress("specular", 0.5)
+            if k == 0:  # world 0 waits until world 1 has started beside it: they overlap
+                release[0].wait(30)
+            if k == 1:
+                overlapped.set()
+                release[0].set()
+            with lock:
+                held[0] -= 1
+            return ("unchanged" if k == 4 else "baked"), "h%d" % k
+        return finish
+
+    for tty in (False, True):
+        held[0], most[0] = 0, 0
+        overlapped.clear()
+        release[0].clear()
+        lines, bar = [], io.StringIO()
+        out = tmp_path / ("tty" if tty else "plain")
+        entries = batch.run(items, str(out), bake_one, log=lines.append, jobs=2, tty=tty, stream=bar)
+        assert overlapped.is_set() and most[0] <= 2, most
+        assert [(e["name"], e["status"]) for e in entries] == [
+            ("w0", "baked"), ("w1", "baked"), ("w2", "baked"), ("w3", "failed"), ("w4", "unchanged"),
+            ("w5", "baked")]
+        assert [w["name"] for w in index(out)["worlds"]] == ["w0", "w1", "w2", "w3", "w4", "w5"]
+        text = bar.getvalue()
+        if tty:
+            assert not lines and "\r[" in text and "\033[K" in text and "/6" in text and "ETA " in text
+            assert "worlds/min" in text
+            assert "failed w3: no pixels\n" in text  # a failure stays as a line
+        else:
+            assert text == "" and len(lines) == 6 and "\033" not in "".join(lines)
+            assert lines[0].startswith("[1/6] baked w1") or lines[0].startswith("[1/6] baked w0"), lines
+            assert any(line.startswith("[") and "failed w3: no pixels" in line for line in lines)
+    d = batch.Display(10, False, clock=iter([0.0, 60.0]).__next__)
+    d.done, d.current, d.stage_text, d.fraction = 3, "forest", "specular", 0.4
+    assert d.bar() == "[#######.................] 3/10 forest: specular 40% | 3.0 worlds/min | ETA 2:20 | 1:00"
+    d.close()
