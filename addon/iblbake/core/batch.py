@@ -154,8 +154,12 @@ def run(items: List[dict], out: str, bake_one: BakeOne, shard: str = "", log=pri
     prepares the next world (the native bake releases the GIL), so at most
     `jobs` worlds are held at once. progress(stage, fraction) feeds the bar.
     On a terminal (tty) a bar, otherwise a line a world ("[3/12] baked
-    forest in 1.20 s", then its warnings); stream: the bar's (stderr). Ctrl-C stops the bakes running,
-    writes the index of the worlds done and raises KeyboardInterrupt."""
+    forest in 1.20 s", then its warnings); stream: the bar's (stderr). A
+    KeyboardInterrupt stops the bakes running through their progress, writes
+    the index of the worlds done and goes on up. (Headless Blender turns a
+    first Ctrl-C into its own break event, which Python never sees: the
+    batch goes on; a second Ctrl-C kills Blender, and the same command then
+    resumes, skipping the worlds already baked.)"""
     core = native.load()
     jobs = max(1, min(int(jobs), len(items) or 1))
     display = Display(len(items), tty, log, stream)
