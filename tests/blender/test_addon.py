@@ -485,9 +485,16 @@ def test_settings_live_in_the_file_and_the_panel_reads_the_folders_bake(tmp_path
     assert "iblbake preview" not in r["images_after_save"]
 
 
+# An older add-on's scene settings, where Blender keeps an add-on's
+# (bpy.props) data: among the ID's custom properties before 5.0, apart from
+# them (system properties) from 5.0 on, where 5.x puts an older file's when
+# it reads one (checked by hand: files written by Blender 3.4 keep Scene
+# Options in 5.2.2).
 OLD_FILE = r'''
 import bpy
-bpy.context.scene["iblbake"] = {{"use_scene_options": {own}, "face_size": 48}}
+scene = bpy.context.scene
+store = scene.bl_system_properties_get(do_create=True) if hasattr(scene, "bl_system_properties_get") else scene
+store["iblbake"] = {{"use_scene_options": {own}, "face_size": 48}}
 bpy.ops.wm.save_as_mainfile(filepath={path!r})
 '''
 
