@@ -243,9 +243,9 @@ def run_batch(args):
         except Exception as e:
             raise RuntimeError(str(operators._words(e)))
 
-        def finish(progress):
+        def finish(progress, say):
             try:
-                report = run(progress)
+                report = run(progress, say)
             except Exception as e:
                 raise RuntimeError(str(operators._words(e)))
             return report.status, report.content_hash

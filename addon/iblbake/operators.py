@@ -49,22 +49,31 @@ def prepare(context, scene):
 
 def headless_bake(context, scene, presets=None):
     """A script's bake in two halves. This one reads the world on the main
-    thread (bpy) and returns the other, run(progress) -> BakeReport, which
-    touches no bpy, so a batch may run it on another thread while Blender
-    reads the next world (bake_world.py --batch --jobs). run replaces the
-    folder's earlier bake, as scripts expect, and prints what went.
+    thread (bpy) and returns the other, run(progress, say) -> BakeReport,
+    which touches no bpy, so a batch may run it on another thread while
+    Blender reads the next world (bake_world.py --batch --jobs). run
+    replaces the folder's earlier bake, as scripts expect, and says what
+    went: printed, or handed to say(text) (then the bake's warnings are not
+    printed either: the caller lists them from the manifest).
     presets: a list of names in place of the scene's engine presets."""
     settings, needs, source, pixels, extra = prepare(context, scene)
     if presets is not None:
         settings.presets = presets
 
-    def run(progress=None):
+    def run(progress=None, say=None):
         old = folder.read_folder(settings.out_dir)
-        report = pipeline.bake(source, pixels, settings, needs, progress, extra)
+        report = pipeline.bake(source, pixels, settings, needs, progress, extra, print_warnings=say is None)
         if old is not None and report.status == "baked":
-            gone = folder.losses(old, folder.outputs_of_manifest(report.manifest), source)
+            try:
+                gone = folder.losses(old, folder.outputs_of_manifest(report.manifest), source)
+            except Exception as e:  # the bake is done: a failure to list what went is not the bake's
+                gone = ["(what went could not be listed: %s)" % _words(e)]
             if gone:
-                print("iblbake: replaced the earlier bake in %s: %s" % (report.out_dir, "; ".join(gone)), flush=True)
+                text = "replaced the earlier bake in %s: %s" % (report.out_dir, "; ".join(gone))
+                if say is None:
+                    print("iblbake: " + text, flush=True)
+                else:
+                    say(text)
         return report
     return run
 

@@ -351,8 +351,10 @@ def test_the_addons_batch_overlaps_worlds_and_draws_the_bar(lib, tmp_path):
                 held[0] -= 1
             raise RuntimeError("no pixels")
 
-        def finish(progress):
+        def finish(progress, say):
             progress("specular", 0.5)
+            if k == 2:
+                say("replaced the earlier bake in w2: a note")
             if k == 0:  # world 0 waits until world 1 has started beside it: they overlap
                 release[0].wait(30)
             if k == 1:
@@ -380,11 +382,59 @@ def test_the_addons_batch_overlaps_worlds_and_draws_the_bar(lib, tmp_path):
             assert not lines and "\r[" in text and "\033[K" in text and "/6" in text and "ETA " in text
             assert "worlds/min" in text
             assert "failed w3: no pixels\n" in text  # a failure stays as a line
+            assert "\r\033[Kreplaced the earlier bake in w2: a note\n" in text  # a bake's note too
         else:
-            assert text == "" and len(lines) == 6 and "\033" not in "".join(lines)
+            assert text == "" and len(lines) == 7 and "\033" not in "".join(lines)
             assert lines[0].startswith("[1/6] baked w1") or lines[0].startswith("[1/6] baked w0"), lines
             assert any(line.startswith("[") and "failed w3: no pixels" in line for line in lines)
+            assert "replaced the earlier bake in w2: a note" in lines
     d = batch.Display(10, False, clock=iter([0.0, 60.0]).__next__)
     d.done, d.current, d.stage_text, d.fraction = 3, "forest", "specular", 0.4
     assert d.bar() == "[#######.................] 3/10 forest: specular 40% | 3.0 worlds/min | ETA 2:20 | 1:00"
     d.close()
+
+
+def test_the_addons_batch_holds_at_most_jobs_worlds_and_times_each_where_it_ends(tmp_path):
+    """A world's pixels (what its finish holds) are let go once it is baked,
+    before a second world past `jobs` is read (jobs 1 and 2), and a world's
+    seconds end when its bake ends, not when the main thread, busy reading
+    the next world, collects it."""
+    import sys
+    import threading
+    import weakref
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "addon"))
+    from iblbake.core import batch
+    items = [{"source": "/x/w%d.exr" % k, "name": "w%d" % k} for k in range(5)]
+
+    class Pixels:
+        pass
+
+    for jobs in (1, 2):
+        alive, most = set(), [0]
+        lock = threading.Lock()
+
+        def bake_one(world):
+            end = time.monotonic() + 2.0  # a worker lets go of its finish just after its future is done
+            while time.monotonic() < end:
+                with lock:
+                    if len(alive) < jobs:
+                        break
+                time.sleep(0.005)
+            k = int(world["name"][1:])
+            pixels = Pixels()
+            with lock:
+                alive.add(k)
+                most[0] = max(most[0], len(alive))
+            weakref.finalize(pixels, lambda k=k: alive.discard(k))
+            time.sleep(0.3 if k == 1 else 0.0)  # reading world 1 is slow
+
+            def finish(progress, say):
+                assert isinstance(pixels, Pixels)
+                time.sleep(0.05)
+                return "baked", "h%d" % k
+            return finish
+
+        entries = batch.run(items, str(tmp_path / ("j%d" % jobs)), bake_one, log=lambda line: None, jobs=jobs)
+        assert [e["status"] for e in entries] == ["baked"] * 5
+        assert most[0] <= jobs, (jobs, most[0])
+        assert entries[0]["seconds"] < 0.25, entries[0]  # world 0 ended while world 1 was being read

@@ -148,31 +148,36 @@ def run(items: List[dict], out: str, bake_one: BakeOne, shard: str = "", log=pri
     entries, in the worlds' order.
 
     bake_one(world) runs on this (Blender's main) thread. It returns
-    (status, content_hash), or a function finish(progress) -> (status,
-    content_hash) holding the rest of the bake, which needs no bpy: with
-    jobs > 1 up to `jobs` of them run on worker threads while this thread
-    prepares the next world (the native bake releases the GIL), so at most
-    `jobs` worlds are held at once. progress(stage, fraction) feeds the bar.
-    On a terminal (tty) a bar, otherwise a line a world ("[3/12] baked
-    forest in 1.20 s", then its warnings); stream: the bar's (stderr). A
-    KeyboardInterrupt stops the bakes running through their progress, writes
-    the index of the worlds done and goes on up. (Headless Blender turns a
-    first Ctrl-C into its own break event, which Python never sees: the
-    batch goes on; a second Ctrl-C kills Blender, and the same command then
-    resumes, skipping the worlds already baked.)"""
+    (status, content_hash), or a function finish(progress, say) ->
+    (status, content_hash) holding the rest of the bake, which needs no
+    bpy: with jobs > 1 up to `jobs` of them run on worker threads while this
+    thread prepares the next world (the native bake releases the GIL), so at
+    most `jobs` worlds are held at once. progress(stage, fraction) feeds the
+    bar; say(text) shows a line that stays (the bake's own warnings are
+    listed from its manifest here, so finish should not print them). On a
+    terminal (tty) a bar, otherwise a line a world ("[3/12] baked forest in
+    1.20 s", then its warnings); stream: the bar's (stderr). Any exception
+    escaping the loop (a KeyboardInterrupt) stops the bakes running through
+    their progress, waits for them, writes the index of the worlds done and
+    goes on up. (Headless Blender turns a first Ctrl-C into its own break
+    event, which Python never sees: the batch goes on; a second Ctrl-C
+    kills Blender, and the same command then resumes, skipping the worlds
+    already baked.)"""
     core = native.load()
     jobs = max(1, min(int(jobs), len(items) or 1))
     display = Display(len(items), tty, log, stream)
     entries: List[Optional[dict]] = [None] * len(items)
     stopping = threading.Event()
 
-    def close(k, entry, started, result=None, error=None):
+    def close(k, entry, started, outcome):
+        """outcome: (result, error, the time it ended)."""
+        result, error, ended = outcome
         if error is None:
             entry["status"], entry["content_hash"] = result
             entry["warnings"] = manifest_warnings(os.path.join(out, entry["name"]))
         else:
             entry["error"] = str(error) or type(error).__name__
-        entry["seconds"] = time.perf_counter() - started
+        entry["seconds"] = ended - started
         entry["preview"] = os.path.isfile(os.path.join(out, entry["name"], "preview.png"))
         entries[k] = entry
         display.finished(entry)
@@ -180,16 +185,22 @@ def run(items: List[dict], out: str, bake_one: BakeOne, shard: str = "", log=pri
     def progress_of(name):
         return lambda stage, fraction: not stopping.is_set() and display.stage(name, stage, fraction)
 
+    def timed(finish, name):
+        """finish's outcome and the time it ended (on the worker: not when collected)."""
+        try:
+            return finish(progress_of(name), display.line), None, time.perf_counter()
+        except Exception as e:  # the world's failure
+            return None, e, time.perf_counter()
+
     pending = {}
     pool = ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="iblbake-batch") if jobs > 1 else None
 
     def collect(block):
-        finished, _ = wait(list(pending), return_when=FIRST_COMPLETED) if block else (
-            [f for f in pending if f.done()], None)
+        finished = wait(list(pending), return_when=FIRST_COMPLETED)[0] if block else [
+            f for f in pending if f.done()]
         for f in finished:
             k, entry, started = pending.pop(f)
-            error = f.exception()
-            close(k, entry, started, None if error else f.result(), error)
+            close(k, entry, started, f.result())
 
     try:
         for k, world in enumerate(items):
@@ -201,19 +212,19 @@ def run(items: List[dict], out: str, bake_one: BakeOne, shard: str = "", log=pri
             started = time.perf_counter()
             try:
                 got = bake_one(world)
-                if callable(got) and pool is not None:
-                    pending[pool.submit(got, progress_of(world["name"]))] = (k, entry, started)
-                    continue
-                result = got(progress_of(world["name"])) if callable(got) else got
-            except KeyboardInterrupt:
-                raise
             except Exception as e:  # keep going; every failure is in the index and the summary
-                close(k, entry, started, error=e)
+                close(k, entry, started, (None, e, time.perf_counter()))
                 continue
-            close(k, entry, started, result)
+            if not callable(got):
+                close(k, entry, started, (got, None, time.perf_counter()))
+            elif pool is not None:
+                pending[pool.submit(timed, got, world["name"])] = (k, entry, started)
+            else:
+                close(k, entry, started, timed(got, world["name"]))
+            got = None  # the world's pixels go with the bake, not with this loop
         while pending:
             collect(True)
-    except KeyboardInterrupt:
+    except BaseException:
         stopping.set()  # the running bakes' progress says stop; they end as Cancelled
         while pending:
             collect(True)

@@ -148,8 +148,8 @@ def source_warnings(source: WorldSource) -> list:
 
 
 def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettings,
-         needs: Optional[Needs] = None, progress: Optional[ProgressFn] = None, extra: Optional[dict] = None
-         ) -> BakeReport:
+         needs: Optional[Needs] = None, progress: Optional[ProgressFn] = None, extra: Optional[dict] = None,
+         print_warnings: bool = True) -> BakeReport:
     """Bake `pixels` ((H, W, 3) float32 lat-long radiance, rows top-down) or,
     for a plain-colour world, source.color, into settings.out_dir. Skips the
     bake when the folder already holds one of the same content hash (unless
@@ -214,6 +214,6 @@ def bake(source: WorldSource, pixels: Optional[np.ndarray], settings: BakeSettin
         raise
     except (ValueError, RuntimeError, OSError) as e:  # bad input, a refused or unwritable folder
         raise BakeError(str(e)) from e
-    for w in result["manifest"].get("warnings") or []:
+    for w in (result["manifest"].get("warnings") or []) if print_warnings else []:  # else the caller lists them
         print("iblbake: warning: %s" % w, file=sys.stderr, flush=True)
     return BakeReport("baked", out_dir, digest, result["manifest"], time.perf_counter() - start)
