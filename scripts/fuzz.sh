@@ -31,6 +31,7 @@ CXX=clang++
 SAN=(-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g -O1)
 INC=(-Inative/include $(pkg-config --cflags OpenEXR libpng libjpeg OpenImageIO))
 SRCS=(native/src/io/image_io.cpp native/src/io/exr_file.cpp native/src/io/png_file.cpp native/src/io/jpeg_file.cpp
+      native/src/io/hdr_file.cpp
       native/src/io/tiff_check.cpp native/src/io/text.cpp native/src/math/half.cpp native/src/image/image.cpp)
 echo "fuzz: building into $OUT"
 objs=()

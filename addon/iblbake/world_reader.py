@@ -326,7 +326,7 @@ def file_read_plan(src: WorldSource):
     read from its file off the main thread (core.world.read_file_pixels),
     else None: Blender's own buffer is read (a packed, generated or edited
     image, or a format the native module does not read: the self-contained
-    wheels read OpenEXR, PNG and JPEG, not Radiance HDR or TIFF). Raises
+    wheels read OpenEXR, PNG, JPEG and Radiance .hdr, not TIFF). Raises
     WorldError for a missing file."""
     img = bpy.data.images[src.image_name]
     if src.image_path and not os.path.isfile(src.image_path):

@@ -120,22 +120,24 @@ def test_bake_world_through_the_installed_extension_equals_the_checkouts_bake(tm
     assert how["bytes"] + how["pixels"] >= 20, how
 
 
-def test_a_radiance_hdr_world_is_read_from_blenders_buffer(tmp_path):
-    """The wheels read OpenEXR, PNG and JPEG, not Radiance .hdr (no
-    OpenImageIO plugin in a wheel): the panel's bake, which reads an EXR
-    world from its file on a worker thread, takes a .hdr world's pixels from
-    Blender's own decoder instead (world_reader.file_read_plan says None);
-    and headless, the .hdr bakes the same lighting as the EXR it was made
-    from (RGBE keeps 8 bits of mantissa: within 1 %)."""
+def test_a_world_the_wheel_cannot_read_comes_from_blenders_buffer(tmp_path):
+    """The wheels read OpenEXR, PNG, JPEG and Radiance .hdr, not TIFF (no
+    OpenImageIO plugin in a wheel): the panel's bake, which reads an EXR or
+    .hdr world from its file on a worker thread, takes a .tif world's
+    pixels from Blender's own decoder instead (world_reader.file_read_plan
+    says None); and headless, the .hdr and the .tif bake the same lighting
+    as the EXR they were made from (RGBE keeps 8 bits of mantissa: within
+    1 %)."""
     if shutil.which("oiiotool") is None:
         pytest.skip("needs oiiotool (openimageio-tools, scripts/install_deps.sh)")
-    hdr = tmp_path / "forest.hdr"
+    hdr, tif = tmp_path / "forest.hdr", tmp_path / "forest.tif"
     subprocess.run(["oiiotool", FOREST, "-o", str(hdr)], check=True)
+    subprocess.run(["oiiotool", FOREST, "-d", "float", "-o", str(tif)], check=True)
     env = install(tmp_path)
     pkg = "bl_ext.user_default.iblbake"
     plans = ("import bpy, importlib\n"
              "wr = importlib.import_module(%r + '.world_reader')\n"
-             "for path in (%r, %r):\n"
+             "for path in (%r, %r, %r):\n"
              "    world = bpy.context.scene.world\n"
              "    nt = world.node_tree\n"
              "    env = nt.nodes.new('ShaderNodeTexEnvironment')\n"
@@ -143,17 +145,21 @@ def test_a_radiance_hdr_world_is_read_from_blenders_buffer(tmp_path):
              "    nt.links.new(env.outputs['Color'], nt.nodes['Background'].inputs['Color'])\n"
              "    plan = wr.file_read_plan(wr.classify(world, check_image=True))\n"
              "    print('PLAN %%s %%s' %% (path.rsplit('.', 1)[1], 'file' if plan else 'blender'))\n"
-             % (pkg, str(hdr), FOREST))
+             % (pkg, str(hdr), str(tif), FOREST))
     p = blender_script(tmp_path, plans, env, factory=False)
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    assert "PLAN hdr blender" in p.stdout and "PLAN exr file" in p.stdout, p.stdout[-2000:]
+    for plan in ("PLAN hdr file", "PLAN tif blender", "PLAN exr file"):
+        assert plan in p.stdout, p.stdout[-2000:]
     script = tmp_path / "bake_world.py"
     shutil.copy(BAKE_WORLD, script)
-    for src, out in ((hdr, "hdr"), (FOREST, "exr")):
+    for src, out in ((hdr, "hdr"), (tif, "tif"), (FOREST, "exr")):
         p = subprocess.run([BLENDER, "-b", "--python-exit-code", "1", "--python", str(script), "--", "--hdri",
                             str(src), "--face-size", "32", "--out", str(tmp_path / out)],
                            capture_output=True, text=True, env=env, timeout=600)
         assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
+    t = manifest(tmp_path / "tif")
     h, e = manifest(tmp_path / "hdr"), manifest(tmp_path / "exr")
     assert h["blender"]["path"] == e["blender"]["path"] == "environment_texture"
     assert h["mean_radiance"] == pytest.approx(e["mean_radiance"], rel=0.01)
+    assert t["blender"]["path"] == "environment_texture"
+    assert t["mean_radiance"] == pytest.approx(e["mean_radiance"], rel=0.01)

@@ -127,7 +127,9 @@ std::vector<float> read_in_bands(io::RowReader& r, int band, bool backwards) {
 
 void expect_same_as_read_image(const std::string& path, std::vector<int> bands = {1, 7, 64, 1000}) {
     const io::LoadedImage whole = io::read_image(path);
-    io::ExrRowReader r(path);
+    const std::unique_ptr<io::RowReader> reader = io::open_rows(path);  // an ExrRowReader for an EXR
+    ASSERT_TRUE(reader) << path << " is read whole, not by rows";
+    io::RowReader& r = *reader;
     ASSERT_EQ(r.width(), whole.image.width);
     ASSERT_EQ(r.height(), whole.image.height);
     EXPECT_EQ(r.warnings(), whole.warnings);
@@ -259,11 +261,13 @@ TEST(ExrRowReader, RefusesWhatReadImageRefuses) {
 // streaming bake's reading costs), then compared with read_image.
 TEST(ExrRowReader, LargeSourceFromEnvironment) {
     const char* path = std::getenv("IBLBAKE_ROWS_SOURCE");
-    if (!path || !*path) GTEST_SKIP() << "set IBLBAKE_ROWS_SOURCE to an EXR file";
+    if (!path || !*path) GTEST_SKIP() << "set IBLBAKE_ROWS_SOURCE to an image file";
     std::vector<float> band_rows;
     {
         const auto t0 = std::chrono::steady_clock::now();
-        io::ExrRowReader r(path);
+        const std::unique_ptr<io::RowReader> reader = io::open_rows(path);  // EXR, HDR, PNG, JPEG, ...
+        ASSERT_TRUE(reader) << path << " is read whole, not by rows";
+        io::RowReader& r = *reader;
         const int band = r.preferred_band();
         band_rows.resize(size_t(r.width()) * band * 3);
         double sum = 0.0;

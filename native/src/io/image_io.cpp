@@ -83,7 +83,7 @@ const Plugin& plugin() {
             p.error = c + " is not iblbake's OpenImageIO plugin";
         }
         if (p.error.empty())
-            p.error = "this build reads OpenEXR, PNG and JPEG itself, and other formats through its OpenImageIO "
+            p.error = "this build reads OpenEXR, PNG, JPEG and Radiance HDR itself, and other formats through its OpenImageIO "
                       "plugin (libiblbake_oiio.so), which it does not have (the self-contained wheels carry none): "
                       "convert the image to EXR";
     });
@@ -315,7 +315,7 @@ std::string image_format(const std::string& path) {
 }
 
 bool reads_format(const std::string& format) {
-    if (format == "openexr" || format == "png" || format == "jpeg") return true;
+    if (format == "openexr" || format == "png" || format == "jpeg" || format == "hdr") return true;
     return !format.empty() && plugin().read != nullptr;
 }
 
@@ -436,13 +436,13 @@ private:
     std::vector<float> scratch_;
 };
 
-// The plugin's rows of a Radiance HDR or PNM/PFM file, or null when it is
+// The plugin's rows of a PNM/PFM file, or null when it is
 // read whole. Other formats are read whole: OpenImageIO's scanline reads of
 // TIFF refuse some files its whole-image read takes (a fuzzed strip layout),
 // and the rows must be read_image's.
 std::unique_ptr<detail::RawRows> plugin_rows(const std::string& path, const std::string& format, uintmax_t size) {
     const Plugin& p = plugin();
-    if (!p.open_rows || (format != "hdr" && format != "pnm")) return nullptr;
+    if (!p.open_rows || format != "pnm") return nullptr;
     detail::IblbakeOiioImage header{};
     char error[512] = {0};
     int rc = 0;
@@ -462,6 +462,7 @@ std::unique_ptr<RowReader> open_rows(const std::string& path) {
     try {
         std::unique_ptr<detail::RawRows> raw = format == "png"    ? detail::png_rows(path, size)
                                                : format == "jpeg" ? detail::jpeg_rows(path, size)
+                                               : format == "hdr"  ? detail::hdr_rows(path, size)
                                                                   : plugin_rows(path, format, size);
         if (!raw) return nullptr;
         check_source_size(raw->header.width, raw->header.height);
@@ -475,6 +476,19 @@ std::unique_ptr<RowReader> open_rows(const std::string& path) {
     }
 }
 
+detail::RawPixels detail::read_all_rows(RawRows& rows, const std::function<void(double)>& progress) {
+    RawPixels out = rows.header;
+    const size_t row_values = size_t(out.width) * out.channels;
+    out.data = FloatBuffer(row_values * size_t(out.height));
+    const int band = std::max(rows.preferred_band(), 1);
+    for (int y0 = 0; y0 < out.height; y0 += band) {
+        const int n = std::min(band, out.height - y0);
+        rows.read(y0, n, out.data.data() + size_t(y0) * row_values);
+        if (progress) progress(double(y0 + n) / out.height);
+    }
+    return out;
+}
+
 LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
     uintmax_t size = 0;
     const std::string format = checked_format(path, size);
@@ -482,9 +496,12 @@ LoadedImage read_image(const std::string& path, const ReadProgress& progress) {
         if (format == "openexr") return finish(detail::read_exr(path, size, progress));
         if (format == "png") return finish(detail::read_png(path, size, progress));
         LoadedImage out;
+        std::unique_ptr<detail::RawRows> hdr = format == "hdr" ? detail::hdr_rows(path, size) : nullptr;
         if (format == "jpeg") {
             out = finish(detail::read_jpeg(path, size));
-        } else {
+        } else if (hdr) {
+            out = finish(detail::read_all_rows(*hdr, progress));
+        } else {  // other formats, and a Radiance file stored turned
             if (format == "tiff") detail::check_tiff_complete(path, size);
             out = finish(read_with_plugin(path, format, size));
         }

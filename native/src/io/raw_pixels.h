@@ -70,6 +70,11 @@ void integers_to_float(const unsigned char* in, size_t values, int bytes, float*
 // A PNG's rows (null for an interlaced one: every pass covers every row) and a JPEG's.
 std::unique_ptr<RawRows> png_rows(const std::string& path, uintmax_t file_size);
 std::unique_ptr<RawRows> jpeg_rows(const std::string& path, uintmax_t file_size);
+// A Radiance RGBE file's rows (hdr_file.cpp), or null for one stored turned
+// (a resolution line other than -Y H +X W), which the plugin reads whole.
+std::unique_ptr<RawRows> hdr_rows(const std::string& path, uintmax_t file_size);
+// Every row of `rows` as one RawPixels (read_image's whole read of a format read by rows).
+RawPixels read_all_rows(RawRows& rows, const std::function<void(double)>& progress);
 
 // The OpenEXR reader and writer (exr_file.cpp) and the PNG writer (png_file.cpp); the writers take
 // their pixels in bands of rows from `fill` (io::write_exr and friends hand them a whole buffer so).
