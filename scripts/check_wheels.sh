@@ -58,6 +58,7 @@ main() {
   cp "$forest" "$work/src/forest.exr"
   oiiotool "$work/src/forest.exr" --colorconvert linear sRGB -d uint8 -o "$work/src/forest.png"
   oiiotool "$work/src/forest.exr" -o "$work/src/forest.hdr"
+  oiiotool "$work/src/forest.exr" -d float -o "$work/src/forest.tif"
   cp "$REPO/tests/wheels/bake_cases.py" "$work/"
   local t=$SECONDS
   (cd "$work" && IBLBAKE_CACHE_DIR="$work/cache" /usr/bin/python3 bake_cases.py "$(dirname "$host_module")" src ref)

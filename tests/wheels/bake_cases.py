@@ -5,7 +5,7 @@ module for the reference):
   python3 bake_cases.py MODULE_DIR SOURCES OUT [--foreign]
 
 MODULE_DIR holds iblbake_core (an unpacked wheel, or build/native). SOURCES
-holds forest.exr, forest.png and forest.hdr. Each case writes OUT/<case>/; OUT/report.json
+holds forest.exr, forest.png, forest.hdr and forest.tif. Each case writes OUT/<case>/; OUT/report.json
 says which module ran, under which Python, and every shared library the
 process had mapped at the end.
 
@@ -58,7 +58,9 @@ def main():
     report["module"] = ib.__file__
     presets = [p["name"] for p in ib.presets()]
     exr, png = os.path.join(sources, "forest.exr"), os.path.join(sources, "forest.png")
+    hdr = os.path.join(sources, "forest.hdr")
     cases = {
+        "hdr": lambda o: ib.bake_file(hdr, o),  # iblbake's own Radiance reader, in every build
         "exr": lambda o: ib.bake_file(exr, o),
         "exr_presets": lambda o: ib.bake_file(exr, o, presets=presets, preview=True),
         "png": lambda o: ib.bake_file(png, o),
@@ -67,14 +69,14 @@ def main():
         "array": lambda o: ib.bake(np.ascontiguousarray(ib.read_image(exr)[:, :, :3]), o, source_path=exr,
                                    face_size=64, mip_count=5),
     }
-    # A Radiance .hdr: read by the build's OpenImageIO plugin, refused in
-    # words by a wheel (which carries none).
-    hdr = os.path.join(sources, "forest.hdr")
-    report["hdr"] = {"format": list(ib.image_format(hdr))}
+    # A TIFF: read by the build's OpenImageIO plugin, refused in words by a
+    # wheel (which carries none).
+    tif = os.path.join(sources, "forest.tif")
+    report["tif"] = {"format": list(ib.image_format(tif))}
     try:
-        report["hdr"]["read"] = list(ib.read_image(hdr).shape)
+        report["tif"]["read"] = list(ib.read_image(tif).shape)
     except (RuntimeError, ValueError, OSError) as e:
-        report["hdr"]["error"] = str(e)
+        report["tif"]["error"] = str(e)
     report["cases"] = {}
     for name, run in cases.items():
         folder = os.path.join(out, name)
