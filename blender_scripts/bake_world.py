@@ -224,6 +224,13 @@ def run_batch(args):
 
     operators = addon_module("operators")
 
+    def in_words(call, *args):
+        """call(*args); any failure as a RuntimeError in the operator's words."""
+        try:
+            return call(*args)
+        except Exception as e:
+            raise RuntimeError(str(operators._words(e))) from e
+
     def bake_one(world):
         """Blender's half on this thread (open the file or make the image's
         world, read or render it); returns the bake's bpy-free rest."""
@@ -237,17 +244,11 @@ def run_batch(args):
             bpy.ops.wm.read_homefile(use_empty=True)
             image = item
         scene = chosen_scene(args, os.path.join(args.out, world["name"]), image)
-        try:
-            with bpy.context.temp_override(scene=scene):
-                run = operators.headless_bake(bpy.context, scene, args.presets)
-        except Exception as e:
-            raise RuntimeError(str(operators._words(e)))
+        with bpy.context.temp_override(scene=scene):
+            run = in_words(operators.headless_bake, bpy.context, scene, args.presets)
 
         def finish(progress, say):
-            try:
-                report = run(progress, say)
-            except Exception as e:
-                raise RuntimeError(str(operators._words(e)))
+            report = in_words(run, progress, say)
             return report.status, report.content_hash
         return finish
 

@@ -3,6 +3,7 @@ import json
 import os
 import re
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -542,26 +543,10 @@ def test_headless_bakes_replace_the_folder_and_print_what_went(tmp_path):
 def run_on_a_terminal(args, timeout=600):
     """blender -b --factory-startup ARGS with a pseudo-terminal as stdout and
     stderr: (exit code, what it printed)."""
-    import pty
-    import select
-    import time
     from blender_helpers import blender_env
-    pid, fd = pty.fork()
-    if pid == 0:
-        os.execve(BLENDER, [BLENDER, "-b", "--factory-startup", *args], blender_env())
-    out, end = b"", time.monotonic() + timeout
-    while time.monotonic() < end:
-        if select.select([fd], [], [], 0.5)[0]:
-            try:
-                chunk = os.read(fd, 65536)
-            except OSError:
-                break
-            if not chunk:
-                break
-            out += chunk
-    _, status = os.waitpid(pid, 0)
-    os.close(fd)
-    return os.waitstatus_to_exitcode(status), out.decode("utf-8", "replace")
+    sys.path.insert(0, os.path.join(ROOT, "tests", "python"))
+    from pty_run import run_on_a_terminal as run
+    return run([BLENDER, "-b", "--factory-startup", *args], blender_env(), timeout)
 
 
 def test_batch_jobs_and_the_bar(tmp_path):

@@ -3,8 +3,6 @@ the index, failures, resume, --force, shards, --jobs, the progress display,
 and that one file is still today's single bake."""
 import json
 import os
-import pty
-import select
 import subprocess
 import time
 
@@ -12,6 +10,7 @@ import numpy as np
 import pytest
 
 import iblbake_core
+import pty_run
 
 CLI = os.environ.get("IBLBAKE_CLI") or os.path.join(os.path.dirname(__file__), "..", "..", "build", "native", "iblbake")
 SMALL = ["--face-size", "16", "--irradiance-size", "8", "--lut-size", "16", "--mips", "3"]
@@ -190,24 +189,7 @@ def test_list_file_shards_and_jobs_equal_a_local_run(tmp_path):
 
 def run_on_a_terminal(args, timeout=120):
     """Runs the CLI with a pseudo-terminal as stdout and stderr; returns (code, what it printed)."""
-    pid, fd = pty.fork()
-    if pid == 0:
-        os.execv(CLI, [CLI, *args])
-    out = b""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        r, _, _ = select.select([fd], [], [], 0.5)
-        if r:
-            try:
-                chunk = os.read(fd, 65536)
-            except OSError:
-                break
-            if not chunk:
-                break
-            out += chunk
-    _, status = os.waitpid(pid, 0)
-    os.close(fd)
-    return os.waitstatus_to_exitcode(status), out.decode("utf-8", "replace")
+    return pty_run.run_on_a_terminal([CLI, *args], timeout=timeout)
 
 
 def test_progress_bar_on_a_terminal_and_lines_otherwise(lib):
