@@ -803,7 +803,7 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     for (const uint32_t b : took) {
         const unsigned tk = taken[b];
         const uint32_t i = chroma_at[b];
-        extra += size_t(__builtin_popcount(tk));
+        extra += size_t((tk & 1u) + (tk >> 1 & 1u) + (tk >> 2 & 1u));  // (no popcnt in the baseline x86-64)
         for (int c = 0; c < 3; ++c) {
             float& p = f[kernel::kP0 + c][i];
             p = tk >> c & 1u ? 0.0f : p;
