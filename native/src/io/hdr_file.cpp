@@ -134,6 +134,9 @@ private:
         at_ = have_ = 0;
         next_ = 0;
     }
+    // Each scanline's bytes are kept as four planes (R, G, B and exponent,
+    // W bytes each): run-length decoding writes them so, and to_float reads
+    // them without an interleaving pass.
     void take(int n) override {
         const size_t w = size_t(layout_.width);
         bytes_.resize(size_t(n) * w * 4);
@@ -141,19 +144,25 @@ private:
         next_ += n;
     }
     void to_float(int n, float* out) const override {
-        const size_t pixels = size_t(n) * size_t(layout_.width);
-        const unsigned char* px = bytes_.data();
-        for (size_t i = 0; i < pixels; ++i, px += 4, out += 3) {
-            const float f = kScales.of[px[3]];
-            out[0] = float(px[0]) * f;
-            out[1] = float(px[1]) * f;
-            out[2] = float(px[2]) * f;
+        const size_t w = size_t(layout_.width);
+        for (int k = 0; k < n; ++k) {
+            const unsigned char* r = bytes_.data() + size_t(k) * w * 4;
+            const unsigned char *g = r + w, *b = g + w, *e = b + w;
+            for (size_t x = 0; x < w; ++x, out += 3) {
+                const float f = kScales.of[e[x]];
+                out[0] = float(r[x]) * f;
+                out[1] = float(g[x]) * f;
+                out[2] = float(b[x]) * f;
+            }
         }
     }
 
     [[noreturn]] void ends() const {
         throw std::runtime_error("the file ends in scanline " + std::to_string(next_ + 1) + " of " +
                                  std::to_string(layout_.height) + ": truncated");
+    }
+    [[noreturn]] void run_past_end() const {
+        throw std::runtime_error("scanline " + std::to_string(next_ + 1) + " has a run past its end: damaged");
     }
     // The file's bytes through a buffer of its own (a run is two bytes: a
     // call of fread each would cost more than the decoding).
@@ -171,28 +180,55 @@ private:
             n -= k;
         }
     }
-    // One scanline into `px` (width x 4 bytes, pixel-interleaved).
-    void scanline(unsigned char* px) {
+    // A flat scanline (W pixels of four bytes, `first` its first pixel when
+    // already read) into the planes.
+    void flat(unsigned char* planes, const unsigned char* first) {
+        const size_t w = size_t(layout_.width);
+        planar_.resize(w * 4);
+        if (first) {
+            std::memcpy(planar_.data(), first, 4);
+            read_exactly(planar_.data() + 4, (w - 1) * 4);
+        } else {
+            read_exactly(planar_.data(), w * 4);
+        }
+        for (size_t x = 0; x < w; ++x)
+            for (size_t c = 0; c < 4; ++c) planes[c * w + x] = planar_[4 * x + c];
+    }
+    // One scanline into `planes` (4 planes of width bytes).
+    void scanline(unsigned char* planes) {
         const int w = layout_.width;
-        if (w < 8 || w > 0x7fff) return read_exactly(px, size_t(w) * 4);  // never run-length encoded
-        read_exactly(px, 4);
-        if (px[0] != 2 || px[1] != 2 || (px[2] & 0x80) != 0) return read_exactly(px + 4, size_t(w - 1) * 4);  // flat
-        if (((int(px[2]) << 8) | px[3]) != w)
+        if (w < 8 || w > 0x7fff) return flat(planes, nullptr);  // never run-length encoded
+        unsigned char head[4];
+        read_exactly(head, 4);
+        if (head[0] != 2 || head[1] != 2 || (head[2] & 0x80) != 0) return flat(planes, head);
+        if (((int(head[2]) << 8) | head[3]) != w)
             throw std::runtime_error("scanline " + std::to_string(next_ + 1) + " says it is " +
-                                     std::to_string((int(px[2]) << 8) | px[3]) + " pixels wide, not " +
+                                     std::to_string((int(head[2]) << 8) | head[3]) + " pixels wide, not " +
                                      std::to_string(w) + ": damaged");
-        planar_.resize(size_t(w) * 4);
         for (int c = 0; c < 4; ++c) {
-            unsigned char* at = planar_.data() + size_t(c) * w;
+            unsigned char* at = planes + size_t(c) * w;
             unsigned char* const end = at + w;
             while (at < end) {
+                if (have_ - at_ >= 129) {  // a whole run buffered (at most 1 + 128 bytes): straight from the buffer
+                    const unsigned char* p = buffer_.data() + at_;
+                    const bool repeat = p[0] > 128;
+                    const int count = repeat ? p[0] - 128 : p[0];
+                    if (count == 0 || count > end - at) run_past_end();
+                    if (repeat) {
+                        std::memset(at, p[1], size_t(count));
+                        at_ += 2;
+                    } else {
+                        std::memcpy(at, p + 1, size_t(count));
+                        at_ += 1 + size_t(count);
+                    }
+                    at += count;
+                    continue;
+                }
                 unsigned char run[2];
                 read_exactly(run, 2);
                 const bool repeat = run[0] > 128;
                 const int count = repeat ? run[0] - 128 : run[0];
-                if (count == 0 || count > end - at)
-                    throw std::runtime_error("scanline " + std::to_string(next_ + 1) +
-                                             " has a run past its end: damaged");
+                if (count == 0 || count > end - at) run_past_end();
                 if (repeat) {
                     std::memset(at, run[1], size_t(count));
                 } else {
@@ -202,8 +238,6 @@ private:
                 at += count;
             }
         }
-        for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 4; ++c) px[4 * x + c] = planar_[size_t(c) * w + x];
     }
 
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> file_;
