@@ -7,6 +7,7 @@
 // be picked by the linker for another unit).
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 
 #include "iblbake/math/fast_math.h"
 #include "specular_kernel.h"
@@ -18,18 +19,39 @@
 namespace iblbake {
 namespace kernel {
 
+// Lanes as GCC vectors of 8 doubles (zmm on AVX-512, whose 32 registers
+// hold the 18 sums; plain arrays spilled them on every pixel), lane l the
+// columns x0 + l as before, so every version adds the same products in the
+// same order (only FMA rounding differs between instruction sets).
 void IBLBAKE_ROW_KERNEL(sh9_row)(const float* row, int width, const double* const* wl, double (*t)[6]) {
     constexpr int kLanes8 = 8;  // independent partial sums, one vector of doubles on AVX-512
-    double acc[3][6][kLanes8] = {};
+    typedef double V8d __attribute__((vector_size(64)));
+    typedef float V8f __attribute__((vector_size(32)));
+    typedef int V8i __attribute__((vector_size(32)));
+    V8d acc[3][6];
+    for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < 6; ++k) acc[c][k] = V8d{};
     const int whole = width / kLanes8 * kLanes8;
-    for (int x0 = 0; x0 < whole; x0 += kLanes8)
-        for (int l = 0; l < kLanes8; ++l) {
-            const float* px = row + size_t(x0 + l) * 3;
-            for (int c = 0; c < 3; ++c) {
-                const double v = px[c];
-                for (int k = 0; k < 6; ++k) acc[c][k][l] += v * wl[k][x0 + l];
-            }
+    for (int x0 = 0; x0 < whole; x0 += kLanes8) {
+        // Eight RGB pixels, 24 floats, into one vector per channel.
+        V8f a, b, c3;
+        std::memcpy(&a, row + size_t(x0) * 3, sizeof(a));
+        std::memcpy(&b, row + size_t(x0) * 3 + 8, sizeof(b));
+        std::memcpy(&c3, row + size_t(x0) * 3 + 16, sizeof(c3));
+        const V8f r = __builtin_shuffle(__builtin_shuffle(a, b, V8i{0, 3, 6, 9, 12, 15, 0, 0}), c3,
+                                        V8i{0, 1, 2, 3, 4, 5, 10, 13});
+        const V8f g = __builtin_shuffle(__builtin_shuffle(a, b, V8i{1, 4, 7, 10, 13, 0, 0, 0}), c3,
+                                        V8i{0, 1, 2, 3, 4, 8, 11, 14});
+        const V8f bl = __builtin_shuffle(__builtin_shuffle(a, b, V8i{2, 5, 8, 11, 14, 0, 0, 0}), c3,
+                                         V8i{0, 1, 2, 3, 4, 9, 12, 15});
+        const V8d v[3] = {__builtin_convertvector(r, V8d), __builtin_convertvector(g, V8d),
+                          __builtin_convertvector(bl, V8d)};
+        for (int k = 0; k < 6; ++k) {
+            V8d w;
+            std::memcpy(&w, wl[k] + x0, sizeof(w));
+            for (int c = 0; c < 3; ++c) acc[c][k] += v[c] * w;
         }
+    }
     for (int x = whole; x < width; ++x)
         for (int c = 0; c < 3; ++c)
             for (int k = 0; k < 6; ++k) acc[c][k][0] += double(row[3 * x + c]) * wl[k][x];
