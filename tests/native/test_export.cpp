@@ -324,6 +324,36 @@ TEST(Pixel, BlockHalfConversionMatchesImath) {
     EXPECT_NE(nan & 0x03FF, 0);
 }
 
+// Every binary16 pattern to float (F16C on this CPU, else software) against
+// OpenEXR's half, into a buffer of its own and in place (the halves in the
+// upper half of the floats' storage, as the EXR row reader puts them), at
+// lengths that take the 8-wide loop and the scalar tail.
+TEST(Pixel, HalvesToFloatsMatchesImathInPlaceToo) {
+    auto same = [](float a, uint16_t h) {  // bit for bit, any NaN for a NaN
+        Imath::half r;
+        r.setBits(h);
+        const float want = float(r);
+        if (std::isnan(want)) return std::isnan(a);
+        uint32_t x, y;
+        std::memcpy(&x, &a, 4);
+        std::memcpy(&y, &want, 4);
+        return x == y;
+    };
+    std::vector<uint16_t> all(65536);
+    for (size_t k = 0; k < all.size(); ++k) all[k] = uint16_t(k);
+    std::vector<float> out(all.size() + 1, -7.0f);
+    halves_to_floats(all.data(), out.data(), all.size());
+    for (size_t k = 0; k < all.size(); ++k) ASSERT_TRUE(same(out[k], all[k])) << k;
+    EXPECT_EQ(out[all.size()], -7.0f);  // nothing past n written
+    for (size_t n : {size_t(65536), size_t(13), size_t(8), size_t(1)}) {
+        std::vector<float> buf(n + 1, -7.0f);
+        std::memcpy(reinterpret_cast<char*>(buf.data()) + 2 * n, all.data() + (65536 - n), 2 * n);
+        halves_to_floats(reinterpret_cast<char*>(buf.data()) + 2 * n, buf.data(), n);
+        for (size_t k = 0; k < n; ++k) ASSERT_TRUE(same(buf[k], all[65536 - n + k])) << n << " " << k;
+        EXPECT_EQ(buf[n], -7.0f);
+    }
+}
+
 TEST(Pixel, E5B9G9R9FollowsTheSharedExponentSpec) {
     // (1, 1, 1): exponent 16 (bias 15, 9 mantissa bits), mantissas 256.
     EXPECT_EQ(pack_e5b9g9r9(1, 1, 1), 256u | 256u << 9 | 256u << 18 | 16u << 27);

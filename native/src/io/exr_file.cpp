@@ -440,6 +440,7 @@ struct ExrRowReader::Impl {
     std::vector<std::string> warnings;
     std::vector<float> tmp;
     std::vector<Imf::Rgba> tmp_rgba;
+    bool all_half = false;           // the three channels read are HALF in the file
 
     int channels() const { return rgba ? 3 : int(names.size()); }
 
@@ -544,6 +545,11 @@ struct ExrRowReader::Impl {
                 reader_warnings = notes.warnings;
             }
         }
+        if (!rgba && names.size() == 3) {
+            const Imf::Header& hd = part ? part->header() : file->header();
+            all_half = true;
+            for (const std::string& n : names) all_half = all_half && hd.channels()[n.c_str()].type == Imf::HALF;
+        }
         // finish()'s order: the reader's warnings, the window's, the channels'.
         warnings = reader_warnings;
         if (!window_warning.empty()) warnings.push_back(window_warning);
@@ -592,6 +598,24 @@ struct ExrRowReader::Impl {
         const int nch = int(names.size());
         Imf::FrameBuffer fbuf;
         const size_t xs = sizeof(float) * nch, ys = xs * data_w;
+        if (nch == 3 && ox == 0 && w == data_w && all_half) {
+            // Half channels read as they are, interleaved RGB (OpenEXR's
+            // SIMD path for such a frame buffer), then made floats here
+            // (F16C): OpenEXR's own conversion, value by value, was a tenth
+            // of a 16K bake's CPU time.
+            // The halves go to the upper half of the caller's rows, which
+            // the floats then fill from the start (halves_to_floats allows
+            // it): no buffer of their own.
+            const size_t values = size_t(n) * data_w * 3;
+            char* halves = reinterpret_cast<char*>(first) + values * sizeof(uint16_t);
+            const size_t hxs = 3 * sizeof(uint16_t), hys = hxs * data_w;
+            char* base = halves - dw.min.x * ptrdiff_t(hxs) - fa * ptrdiff_t(hys);
+            for (int c = 0; c < 3; ++c)
+                fbuf.insert(names[c], Imf::Slice(Imf::HALF, base + c * sizeof(uint16_t), hxs, hys, 1, 1, 0.0));
+            read_file_rows(fa, fb, fbuf);
+            halves_to_floats(halves, first, values);
+            return;
+        }
         if (nch == 3 && ox == 0 && w == data_w) {  // straight into the caller's rows
             char* base = reinterpret_cast<char*>(first) - dw.min.x * ptrdiff_t(xs) - fa * ptrdiff_t(ys);
             for (int c = 0; c < 3; ++c) fbuf.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));

@@ -10,4 +10,11 @@ namespace iblbake {
 uint16_t float_to_half(float v);
 void floats_to_half(const float* in, uint16_t* out, size_t n);
 
+// n binary16 values (bytes, native order) as floats, exactly (F16C where
+// the CPU has it, else Imath's table; a NaN stays a NaN, its payload
+// aside). `in` may lie in out's own storage at or after byte 2 n (the upper
+// half of n floats): value k is read before float k is written, and no
+// float written reaches a value not yet read.
+void halves_to_floats(const void* in, float* out, size_t n);
+
 }  // namespace iblbake
