@@ -259,6 +259,25 @@ void read_part(In& in, const std::vector<std::string>& names, RawPixels& out,
     // then also take the page faults of a large image in parallel.
     out.data.resize(size_t(out.width) * out.height * out.channels);
     Imf::FrameBuffer fb;
+    bool half = out.channels == 3;
+    for (const std::string& n : names) half = half && in.header().channels()[n.c_str()].type == Imf::HALF;
+    if (half) {
+        // Three HALF channels: read as interleaved halves into the upper
+        // half of the floats' storage (OpenEXR's SIMD path for an RGB half
+        // frame buffer), then made floats in place (F16C), as the row reader
+        // does: OpenEXR's own conversion goes value by value.
+        const size_t values = out.data.size();
+        char* halves = reinterpret_cast<char*>(out.data.data()) + values * sizeof(uint16_t);
+        const size_t xs = 3 * sizeof(uint16_t), ys = xs * out.width;
+        char* base = halves - dw.min.x * ptrdiff_t(xs) - dw.min.y * ptrdiff_t(ys);
+        for (int c = 0; c < 3; ++c)
+            fb.insert(names[c], Imf::Slice(Imf::HALF, base + c * sizeof(uint16_t), xs, ys, 1, 1, 0.0));
+        in.setFrameBuffer(fb);
+        read_in_bands(dw.min.y, dw.max.y, in.header().compression(), progress,
+                      [&](int a, int b) { in.readPixels(a, b); });
+        halves_to_floats(halves, out.data.data(), values);
+        return;
+    }
     const size_t xs = sizeof(float) * out.channels, ys = xs * out.width;
     char* base = reinterpret_cast<char*>(out.data.data()) - dw.min.x * ptrdiff_t(xs) - dw.min.y * ptrdiff_t(ys);
     for (int c = 0; c < out.channels; ++c)
