@@ -324,7 +324,7 @@ TEST(Pixel, BlockHalfConversionMatchesImath) {
     EXPECT_NE(nan & 0x03FF, 0);
 }
 
-// Every binary16 pattern to float (F16C on this CPU, else software) against
+// Every binary16 pattern to float (F16C on this CPU, and the software path) against
 // OpenEXR's half, into a buffer of its own and in place (the halves in the
 // upper half of the floats' storage, as the EXR row reader puts them), at
 // lengths that take the 8-wide loop and the scalar tail.
@@ -341,16 +341,18 @@ TEST(Pixel, HalvesToFloatsMatchesImathInPlaceToo) {
     };
     std::vector<uint16_t> all(65536);
     for (size_t k = 0; k < all.size(); ++k) all[k] = uint16_t(k);
-    std::vector<float> out(all.size() + 1, -7.0f);
-    halves_to_floats(all.data(), out.data(), all.size());
-    for (size_t k = 0; k < all.size(); ++k) ASSERT_TRUE(same(out[k], all[k])) << k;
-    EXPECT_EQ(out[all.size()], -7.0f);  // nothing past n written
-    for (size_t n : {size_t(65536), size_t(13), size_t(8), size_t(1)}) {
-        std::vector<float> buf(n + 1, -7.0f);
-        std::memcpy(reinterpret_cast<char*>(buf.data()) + 2 * n, all.data() + (65536 - n), 2 * n);
-        halves_to_floats(reinterpret_cast<char*>(buf.data()) + 2 * n, buf.data(), n);
-        for (size_t k = 0; k < n; ++k) ASSERT_TRUE(same(buf[k], all[65536 - n + k])) << n << " " << k;
-        EXPECT_EQ(buf[n], -7.0f);
+    for (auto convert : {&halves_to_floats, &detail::halves_to_floats_software}) {
+        std::vector<float> out(all.size() + 1, -7.0f);
+        convert(all.data(), out.data(), all.size());
+        for (size_t k = 0; k < all.size(); ++k) ASSERT_TRUE(same(out[k], all[k])) << k;
+        EXPECT_EQ(out[all.size()], -7.0f);  // nothing past n written
+        for (size_t n : {size_t(65536), size_t(13), size_t(8), size_t(1)}) {
+            std::vector<float> buf(n + 1, -7.0f);
+            std::memcpy(reinterpret_cast<char*>(buf.data()) + 2 * n, all.data() + (65536 - n), 2 * n);
+            convert(reinterpret_cast<char*>(buf.data()) + 2 * n, buf.data(), n);
+            for (size_t k = 0; k < n; ++k) ASSERT_TRUE(same(buf[k], all[65536 - n + k])) << n << " " << k;
+            EXPECT_EQ(buf[n], -7.0f);
+        }
     }
 }
 

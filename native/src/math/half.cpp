@@ -78,14 +78,8 @@ void floats_to_half(const float* in, uint16_t* out, size_t n) {
     for (size_t k = 0; k < n; ++k) out[k] = Imath::half(in[k]).bits();
 }
 
-void halves_to_floats(const void* in, float* out, size_t n) {
+void detail::halves_to_floats_software(const void* in, float* out, size_t n) {
     const unsigned char* bytes = static_cast<const unsigned char*>(in);
-#if defined(__x86_64__)
-    if (has_f16c()) {
-        halves_to_floats_f16c(bytes, out, n);
-        return;
-    }
-#endif
     for (size_t k = 0; k < n; ++k) {
         uint16_t bits;
         std::memcpy(&bits, bytes + 2 * k, sizeof(bits));
@@ -94,6 +88,16 @@ void halves_to_floats(const void* in, float* out, size_t n) {
         const float f = float(h);
         std::memcpy(out + k, &f, sizeof(f));
     }
+}
+
+void halves_to_floats(const void* in, float* out, size_t n) {
+#if defined(__x86_64__)
+    if (has_f16c()) {
+        halves_to_floats_f16c(static_cast<const unsigned char*>(in), out, n);
+        return;
+    }
+#endif
+    detail::halves_to_floats_software(in, out, n);
 }
 
 }  // namespace iblbake

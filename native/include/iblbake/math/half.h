@@ -16,5 +16,8 @@ void floats_to_half(const float* in, uint16_t* out, size_t n);
 // half of n floats): value k is read before float k is written, and no
 // float written reaches a value not yet read.
 void halves_to_floats(const void* in, float* out, size_t n);
+namespace detail {
+void halves_to_floats_software(const void* in, float* out, size_t n);  // the path without F16C (tests)
+}
 
 }  // namespace iblbake
