@@ -241,6 +241,27 @@ ChannelChoice choose_channels(const Imf::ChannelList& ch, std::string& why) {
     return {};
 }
 
+// Whether the channels read are three, each HALF in the file: then they
+// are read as interleaved halves (OpenEXR's SIMD path for an RGB half frame
+// buffer) and made floats by F16C (halves_to_floats), not by OpenEXR's
+// conversion, which goes value by value (a tenth of a 16K bake's CPU).
+bool three_half_channels(const Imf::ChannelList& ch, const std::vector<std::string>& names) {
+    if (names.size() != 3) return false;
+    for (const std::string& n : names)
+        if (ch[n.c_str()].type != Imf::HALF) return false;
+    return true;
+}
+
+// The slices that put rows first_y.. of a data window starting at column
+// min_x, `width` wide, as interleaved RGB halves at `halves`: the upper half
+// of those rows' float storage, which halves_to_floats then fills in place.
+void insert_half_slices(Imf::FrameBuffer& fb, const std::vector<std::string>& names, char* halves, int min_x,
+                        int first_y, int width) {
+    const size_t xs = 3 * sizeof(uint16_t), ys = xs * size_t(width);
+    char* base = halves - min_x * ptrdiff_t(xs) - first_y * ptrdiff_t(ys);
+    for (int c = 0; c < 3; ++c) fb.insert(names[c], Imf::Slice(Imf::HALF, base + c * sizeof(uint16_t), xs, ys, 1, 1, 0.0));
+}
+
 template <typename In>
 void read_part(In& in, const std::vector<std::string>& names, RawPixels& out,
                const std::function<void(double)>& progress) {
@@ -259,19 +280,10 @@ void read_part(In& in, const std::vector<std::string>& names, RawPixels& out,
     // then also take the page faults of a large image in parallel.
     out.data.resize(size_t(out.width) * out.height * out.channels);
     Imf::FrameBuffer fb;
-    bool half = out.channels == 3;
-    for (const std::string& n : names) half = half && in.header().channels()[n.c_str()].type == Imf::HALF;
-    if (half) {
-        // Three HALF channels: read as interleaved halves into the upper
-        // half of the floats' storage (OpenEXR's SIMD path for an RGB half
-        // frame buffer), then made floats in place (F16C), as the row reader
-        // does: OpenEXR's own conversion goes value by value.
+    if (three_half_channels(in.header().channels(), names)) {
         const size_t values = out.data.size();
         char* halves = reinterpret_cast<char*>(out.data.data()) + values * sizeof(uint16_t);
-        const size_t xs = 3 * sizeof(uint16_t), ys = xs * out.width;
-        char* base = halves - dw.min.x * ptrdiff_t(xs) - dw.min.y * ptrdiff_t(ys);
-        for (int c = 0; c < 3; ++c)
-            fb.insert(names[c], Imf::Slice(Imf::HALF, base + c * sizeof(uint16_t), xs, ys, 1, 1, 0.0));
+        insert_half_slices(fb, names, halves, dw.min.x, dw.min.y, out.width);
         in.setFrameBuffer(fb);
         read_in_bands(dw.min.y, dw.max.y, in.header().compression(), progress,
                       [&](int a, int b) { in.readPixels(a, b); });
@@ -459,7 +471,7 @@ struct ExrRowReader::Impl {
     std::vector<std::string> warnings;
     std::vector<float> tmp;
     std::vector<Imf::Rgba> tmp_rgba;
-    bool all_half = false;           // the three channels read are HALF in the file
+    bool all_half = false;           // detail::three_half_channels
 
     int channels() const { return rgba ? 3 : int(names.size()); }
 
@@ -564,11 +576,7 @@ struct ExrRowReader::Impl {
                 reader_warnings = notes.warnings;
             }
         }
-        if (!rgba && names.size() == 3) {
-            const Imf::Header& hd = part ? part->header() : file->header();
-            all_half = true;
-            for (const std::string& n : names) all_half = all_half && hd.channels()[n.c_str()].type == Imf::HALF;
-        }
+        if (!rgba) all_half = detail::three_half_channels((part ? part->header() : file->header()).channels(), names);
         // finish()'s order: the reader's warnings, the window's, the channels'.
         warnings = reader_warnings;
         if (!window_warning.empty()) warnings.push_back(window_warning);
@@ -618,19 +626,11 @@ struct ExrRowReader::Impl {
         Imf::FrameBuffer fbuf;
         const size_t xs = sizeof(float) * nch, ys = xs * data_w;
         if (nch == 3 && ox == 0 && w == data_w && all_half) {
-            // Half channels read as they are, interleaved RGB (OpenEXR's
-            // SIMD path for such a frame buffer), then made floats here
-            // (F16C): OpenEXR's own conversion, value by value, was a tenth
-            // of a 16K bake's CPU time.
-            // The halves go to the upper half of the caller's rows, which
-            // the floats then fill from the start (halves_to_floats allows
-            // it): no buffer of their own.
+            // Into the upper half of the caller's rows, which the floats
+            // then fill from the start: no buffer of their own.
             const size_t values = size_t(n) * data_w * 3;
             char* halves = reinterpret_cast<char*>(first) + values * sizeof(uint16_t);
-            const size_t hxs = 3 * sizeof(uint16_t), hys = hxs * data_w;
-            char* base = halves - dw.min.x * ptrdiff_t(hxs) - fa * ptrdiff_t(hys);
-            for (int c = 0; c < 3; ++c)
-                fbuf.insert(names[c], Imf::Slice(Imf::HALF, base + c * sizeof(uint16_t), hxs, hys, 1, 1, 0.0));
+            detail::insert_half_slices(fbuf, names, halves, dw.min.x, fa, data_w);
             read_file_rows(fa, fb, fbuf);
             halves_to_floats(halves, first, values);
             return;
