@@ -102,7 +102,6 @@ HdrLayout read_header(std::FILE* f) {
     return out;
 }
 
-
 // One scanline's planes (R, G, B mantissas, exponents) as floats, RGB
 // interleaved, as rgbe.c makes them: m x 2^(e - 136), and 0 for e = 0 (every
 // mantissa of such a pixel reads 0). The scale 2^(e - 136) is exact in a
@@ -216,30 +215,25 @@ private:
             unsigned char* at = planes + size_t(c) * w;
             unsigned char* const end = at + w;
             while (at < end) {
-                if (have_ - at_ >= 129) {  // a whole run buffered (at most 1 + 128 bytes): straight from the buffer
-                    const unsigned char* p = buffer_.data() + at_;
-                    const bool repeat = p[0] > 128;
-                    const int count = repeat ? p[0] - 128 : p[0];
-                    if (count == 0 || count > end - at) run_past_end();
-                    if (repeat) {
-                        std::memset(at, p[1], size_t(count));
-                        at_ += 2;
-                    } else {
-                        std::memcpy(at, p + 1, size_t(count));
-                        at_ += 1 + size_t(count);
-                    }
-                    at += count;
-                    continue;
-                }
-                unsigned char run[2];
-                read_exactly(run, 2);
-                const bool repeat = run[0] > 128;
-                const int count = repeat ? run[0] - 128 : run[0];
+                // A run is a count and one byte (c > 128: that byte c - 128
+                // times) or c bytes. With a whole run buffered (at most 1 +
+                // 128 bytes) it is taken straight from the buffer, else
+                // through read_exactly.
+                const bool buffered = have_ - at_ >= 129;
+                unsigned char head[2];
+                if (!buffered) read_exactly(head, 2);
+                const unsigned char* p = buffered ? buffer_.data() + at_ : head;
+                const bool repeat = p[0] > 128;
+                const int count = repeat ? p[0] - 128 : p[0];
                 if (count == 0 || count > end - at) run_past_end();
                 if (repeat) {
-                    std::memset(at, run[1], size_t(count));
+                    std::memset(at, p[1], size_t(count));
+                    if (buffered) at_ += 2;
+                } else if (buffered) {
+                    std::memcpy(at, p + 1, size_t(count));
+                    at_ += 1 + size_t(count);
                 } else {
-                    at[0] = run[1];
+                    at[0] = p[1];
                     if (count > 1) read_exactly(at + 1, size_t(count - 1));
                 }
                 at += count;
