@@ -107,30 +107,44 @@ struct HotPoints {
 };
 
 // The hot points' share, (1/pi) sum P_c E[max(0, n.w)] over each point's hat:
-// P max(0, mu) in one vectorised pass (fixed lanes), then the few within 5
-// sigma of n's horizon corrected to the Gaussian model's value.
+// P max(0, mu) in one vectorised pass (fixed lanes), which also marks the
+// points within 5 sigma of n's horizon; runs of 16 with none marked are
+// skipped, and the few marked are corrected to the Gaussian model's value.
 void hot_direction(const HotPoints& h, const Vec3d& n, float out[3]) {
     if (h.count == 0) return;
     constexpr size_t kLanes = 16;
     const float nx = float(n.x), ny = float(n.y), nz = float(n.z);
     thread_local std::vector<uint32_t> near;
+    thread_local std::vector<float> marked;  // 1 for a point within reach of n's horizon, else 0
     near.resize(h.count + 1);
+    marked.resize(h.count);
     size_t n_near = 0;
     float s0[kLanes] = {}, s1[kLanes] = {}, s2[kLanes] = {};
     const size_t whole = h.count / kLanes * kLanes;
+    const float *mx = h.mx.data(), *my = h.my.data(), *mz = h.mz.data(), *reach = h.reach.data();
+    float* mk = marked.data();
     auto term = [&](size_t k, size_t l) {
-        const float mu = nx * h.mx[k] + ny * h.my[k] + nz * h.mz[k];
+        const float mu = nx * mx[k] + ny * my[k] + nz * mz[k];
         const float e = std::max(0.0f, mu);
         s0[l] += h.p[0][k] * e;
         s1[l] += h.p[1][k] * e;
         s2[l] += h.p[2][k] * e;
+        mk[k] = std::fabs(mu) < reach[k] ? 1.0f : 0.0f;
     };
     for (size_t k0 = 0; k0 < whole; k0 += kLanes)
         for (size_t l = 0; l < kLanes; ++l) term(k0 + l, l);
     for (size_t k = whole; k < h.count; ++k) term(k, 0);
-    for (size_t k = 0; k < h.count; ++k) {  // branch-free compaction
-        near[n_near] = uint32_t(k);
-        n_near += std::fabs(nx * h.mx[k] + ny * h.my[k] + nz * h.mz[k]) < h.reach[k];
+    for (size_t k0 = 0; k0 < h.count; k0 += kLanes) {  // branch-free compaction of the runs with any marked
+        const size_t e = std::min(h.count, k0 + kLanes);
+        if (e - k0 == kLanes) {
+            float any = 0.0f;
+            for (size_t l = 0; l < kLanes; ++l) any += mk[k0 + l];
+            if (any == 0.0f) continue;
+        }
+        for (size_t k = k0; k < e; ++k) {
+            near[n_near] = uint32_t(k);
+            n_near += mk[k] != 0.0f;
+        }
     }
     double acc[3] = {0, 0, 0};
     for (size_t l = 0; l < kLanes; ++l) acc[0] += s0[l], acc[1] += s1[l], acc[2] += s2[l];

@@ -572,7 +572,8 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
 }
 
 // The sums over the bins in acc (padded to whole lanes here) at each texel
-// of the tile: out(i, j, num) with num[lobe][channel].
+// of the tile, texels_per_call(K) texels a call in row-major order:
+// out(i, j, num) with num[lobe][channel].
 template <typename Out>
 void sum_tile(const Tile& t, std::vector<float> (&acc)[kFields], int K, const float* a2, kernel::SumsFn sums,
               Out out) {
@@ -580,14 +581,18 @@ void sum_tile(const Tile& t, std::vector<float> (&acc)[kFields], int K, const fl
     for (auto& a : acc) a.resize(padded, 0.0f);
     const float* fields[kFields];
     for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
-    size_t k = 0;
-    for (int j = t.j0; j < t.j1; ++j)
-        for (int i = t.i0; i < t.i1; ++i, ++k) {
-            double num[kernel::kMaxLobes][3];
-            const Vec3& d = t.dirs[k];
-            sums(fields, padded, K, a2, d.x, d.y, d.z, num);
-            out(i, j, num);
+    const int w = t.i1 - t.i0, texels = w * (t.j1 - t.j0), per_call = kernel::texels_per_call(K);
+    for (int k0 = 0; k0 < texels; k0 += per_call) {
+        const int m = std::min(per_call, texels - k0);
+        float dirs[3 * kernel::kMaxLobes];
+        for (int q = 0; q < m; ++q) {
+            const Vec3& d = t.dirs[size_t(k0 + q)];
+            dirs[3 * q] = d.x, dirs[3 * q + 1] = d.y, dirs[3 * q + 2] = d.z;
         }
+        double num[kernel::kMaxLobes][kernel::kMaxLobes][3];
+        sums(fields, padded, K, a2, dirs, m, num);
+        for (int q = 0; q < m; ++q) out(t.i0 + (k0 + q) % w, t.j0 + (k0 + q) / w, num[q]);
+    }
 }
 
 // The estimates of chroma_pass for n bins of varying colour seen from a
@@ -703,17 +708,23 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
         const float* fields[kFields];
         for (int k = 0; k < kFields; ++k) fields[k] = acc[k].data();
         const size_t padded = acc[0].size();  // whole lanes (gather_bins)
+        // The corners (each once), in one call where the lobes allow.
         const int ci[2] = {t.i0, t.i1 - 1}, cj[2] = {t.j0, t.j1 - 1};
         const int w = t.i1 - t.i0;
+        float dirs[3 * 4];
+        int corners = 0;
         for (int a = 0; a < 4; ++a) {
             if ((a & 1) && ci[1] == ci[0]) continue;
             if ((a & 2) && cj[1] == cj[0]) continue;
             const Vec3& d = t.dirs[size_t(cj[a >> 1] - t.j0) * w + size_t(ci[a & 1] - t.i0)];
-            double num[kernel::kMaxLobes][3];
-            sums(fields, padded, K, a2, d.x, d.y, d.z, num);
-            for (int g = 0; g < K; ++g)
-                for (int c = 0; c < 3; ++c) least[g][c] = std::min(least[g][c], float(num[g][c] * inv_zd[g]));
+            dirs[3 * corners] = d.x, dirs[3 * corners + 1] = d.y, dirs[3 * corners + 2] = d.z;
+            ++corners;
         }
+        double num[4][kernel::kMaxLobes][3];
+        sums(fields, padded, K, a2, dirs, corners, num);
+        for (int a = 0; a < corners; ++a)
+            for (int g = 0; g < K; ++g)
+                for (int c = 0; c < 3; ++c) least[g][c] = std::min(least[g][c], float(num[a][g][c] * inv_zd[g]));
         // Rounded down to an eighth of an octave: the limits, and so the
         // bins chosen, do not follow the sums' last bits (which differ
         // between the kernels of different instruction sets).

@@ -19,21 +19,25 @@ enum Field { kPx, kPy, kPz, kG, kP0, kP1, kP2, kCxx, kCyy, kCzz, kCxy, kCxz, kCy
 constexpr size_t kLanes = 16;  // independent partial sums: the order stays fixed
 constexpr int kMaxLobes = 4;
 
-// For `lobes` GGX lobes (1..kMaxLobes, a2[k] = alpha_k^2) at one direction n,
-// sum_b power_b E_b[k(n.w)] over `count` bins (a multiple of kLanes), k the
-// prefilter kernel up to its constant factor 4 a^2 / pi, by the second- and
-// fourth-order rule from each bin's moments (specular.cpp). The bins' loads,
-// distances and variances are shared by the lobes. num[k][ch].
-using SumsFn = void (*)(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny,
-                        float nz, double (*num)[3]);
+// For `lobes` GGX lobes (1..kMaxLobes, a2[k] = alpha_k^2) at `texels`
+// directions n (dirs[3 q .. 3 q + 2], q < texels), sum_b power_b E_b[k(n.w)]
+// over `count` bins (a multiple of kLanes), k the prefilter kernel up to its
+// constant factor 4 a^2 / pi, by the second- and fourth-order rule from each
+// bin's moments (specular.cpp). The bins' loads are shared by the texels of
+// one call (texels_per_call at a time), their distances and variances by the
+// lobes; each texel's sums are the same to the bit however many share the
+// call. num[q][k][ch].
+constexpr int texels_per_call(int lobes) { return lobes < 1 ? kMaxLobes : kMaxLobes / lobes < 1 ? 1 : kMaxLobes / lobes; }
+using SumsFn = void (*)(const float* const* fields, size_t count, int lobes, const float* a2, const float* dirs,
+                        int texels, double (*num)[kMaxLobes][3]);
 
 // One per instruction set; the avx2 and avx512 ones exist only on x86-64.
-void sums_baseline(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny, float nz,
-                   double (*num)[3]);
-void sums_avx2(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny, float nz,
-               double (*num)[3]);
-void sums_avx512(const float* const* fields, size_t count, int lobes, const float* a2, float nx, float ny, float nz,
-                 double (*num)[3]);
+void sums_baseline(const float* const* fields, size_t count, int lobes, const float* a2, const float* dirs, int texels,
+                   double (*num)[kMaxLobes][3]);
+void sums_avx2(const float* const* fields, size_t count, int lobes, const float* a2, const float* dirs, int texels,
+               double (*num)[kMaxLobes][3]);
+void sums_avx512(const float* const* fields, size_t count, int lobes, const float* a2, const float* dirs, int texels,
+                 double (*num)[kMaxLobes][3]);
 
 // One lat-long row's radiance-weighted longitude integrals for the SH9
 // projection (source.cpp): t[c][k] = sum over x of row[3 x + c] wl[k][x],

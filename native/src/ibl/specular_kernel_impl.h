@@ -11,7 +11,10 @@
 // v = var u, cu = c u:
 //   E[k] = t^-2 [c + v (2 + 3 cu + kurt v u (4 + 5 cu))],
 // the fourth moment taken as kurt var^2 (kurt = 1.5). Float lanes within
-// blocks of 512 bins, double across.
+// blocks of 512 bins, double across. Up to kMaxLobes / lobes texels take
+// each bin's fields from one load (a tile's bins outgrow the first-level
+// cache at about 600): each texel's operations, and so its sums, are those
+// it would have alone.
 #include "specular_kernel.h"
 
 #if defined(__AVX512F__)
@@ -30,124 +33,160 @@ inline size_t block_end(size_t b, size_t count) { return count < b + kBlock ? co
 #if defined(__AVX512F__)
 // 16 lanes in one register; the reciprocal by rcp14 and one Newton step
 // (within an ulp or two of the division).
-template <int K>
-void sums(const float* const* f, size_t count, const float* a2, float nx, float ny, float nz, double (*num)[3]) {
-    for (int k = 0; k < K; ++k) num[k][0] = num[k][1] = num[k][2] = 0.0;
+template <int K, int T>
+void sums(const float* const* f, size_t count, const float* a2, const float* dirs, double (*num)[kMaxLobes][3]) {
+    for (int q = 0; q < T; ++q)
+        for (int k = 0; k < K; ++k) num[q][k][0] = num[q][k][1] = num[q][k][2] = 0.0;
     __m512 vs[K], vt2[K];
     for (int k = 0; k < K; ++k) {
         vs[k] = _mm512_set1_ps(1.0f - a2[k]);
         vt2[k] = _mm512_set1_ps(2.0f * a2[k]);
     }
-    const __m512 vnx = _mm512_set1_ps(nx), vny = _mm512_set1_ps(ny), vnz = _mm512_set1_ps(nz);
-    const __m512 nxx = _mm512_set1_ps(nx * nx), nyy = _mm512_set1_ps(ny * ny), nzz = _mm512_set1_ps(nz * nz);
-    const __m512 nxy = _mm512_set1_ps(2.0f * nx * ny), nxz = _mm512_set1_ps(2.0f * nx * nz),
-                 nyz = _mm512_set1_ps(2.0f * ny * nz);
+    __m512 vnx[T], vny[T], vnz[T], nxx[T], nyy[T], nzz[T], nxy[T], nxz[T], nyz[T];
+    for (int q = 0; q < T; ++q) {
+        const float nx = dirs[3 * q], ny = dirs[3 * q + 1], nz = dirs[3 * q + 2];
+        vnx[q] = _mm512_set1_ps(nx), vny[q] = _mm512_set1_ps(ny), vnz[q] = _mm512_set1_ps(nz);
+        nxx[q] = _mm512_set1_ps(nx * nx), nyy[q] = _mm512_set1_ps(ny * ny), nzz[q] = _mm512_set1_ps(nz * nz);
+        nxy[q] = _mm512_set1_ps(2.0f * nx * ny), nxz[q] = _mm512_set1_ps(2.0f * nx * nz);
+        nyz[q] = _mm512_set1_ps(2.0f * ny * nz);
+    }
     const __m512 one = _mm512_set1_ps(1.0f), half = _mm512_set1_ps(0.5f), two = _mm512_set1_ps(2.0f);
     const __m512 kurt = _mm512_set1_ps(kKurtosis), three = _mm512_set1_ps(3.0f), four = _mm512_set1_ps(4.0f),
                  five = _mm512_set1_ps(5.0f);
     for (size_t b = 0; b < count; b += kBlock) {
         const size_t e = block_end(b, count);
-        __m512 acc[K][3];
-        for (int k = 0; k < K; ++k) acc[k][0] = acc[k][1] = acc[k][2] = _mm512_setzero_ps();
+        __m512 acc[T][K][3];
+        for (int q = 0; q < T; ++q)
+            for (int k = 0; k < K; ++k) acc[q][k][0] = acc[q][k][1] = acc[q][k][2] = _mm512_setzero_ps();
         for (size_t p = b; p < e; p += kLanes) {
-            const __m512 dx = _mm512_sub_ps(vnx, _mm512_loadu_ps(f[kPx] + p));
-            const __m512 dy = _mm512_sub_ps(vny, _mm512_loadu_ps(f[kPy] + p));
-            const __m512 dz = _mm512_sub_ps(vnz, _mm512_loadu_ps(f[kPz] + p));
-            const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
+            // The bin's fields, loaded once for the T texels.
+            const __m512 px = _mm512_loadu_ps(f[kPx] + p), py = _mm512_loadu_ps(f[kPy] + p),
+                         pz = _mm512_loadu_ps(f[kPz] + p);
             const __m512 g = _mm512_loadu_ps(f[kG] + p);
-            const __m512 omc = _mm512_fmadd_ps(_mm512_mul_ps(_mm512_sub_ps(one, g), half), d2, g);
-            const __m512 c = _mm512_sub_ps(one, omc);
-            __m512 var = _mm512_mul_ps(_mm512_loadu_ps(f[kCxx] + p), nxx);
-            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCyy] + p), nyy, var);
-            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCzz] + p), nzz, var);
-            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCxy] + p), nxy, var);
-            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCxz] + p), nxz, var);
-            var = _mm512_fmadd_ps(_mm512_loadu_ps(f[kCyz] + p), nyz, var);
-            const __mmask16 lit = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_GT_OQ);
+            const __m512 hg = _mm512_mul_ps(_mm512_sub_ps(one, g), half);
+            const __m512 cxx = _mm512_loadu_ps(f[kCxx] + p), cyy = _mm512_loadu_ps(f[kCyy] + p),
+                         czz = _mm512_loadu_ps(f[kCzz] + p), cxy = _mm512_loadu_ps(f[kCxy] + p),
+                         cxz = _mm512_loadu_ps(f[kCxz] + p), cyz = _mm512_loadu_ps(f[kCyz] + p);
             const __m512 p0 = _mm512_loadu_ps(f[kP0] + p), p1 = _mm512_loadu_ps(f[kP1] + p),
                          p2 = _mm512_loadu_ps(f[kP2] + p);
-            for (int k = 0; k < K; ++k) {
-                const __m512 t = _mm512_fmadd_ps(vs[k], omc, vt2[k]);
-                __m512 it = _mm512_maskz_rcp14_ps(0xffff, t);  // (rcp14_ps trips -Wmaybe-uninitialized on GCC 12)
-                it = _mm512_mul_ps(it, _mm512_fnmadd_ps(t, it, two));
-                const __m512 u = _mm512_mul_ps(vs[k], it), v = _mm512_mul_ps(var, u), cu = _mm512_mul_ps(c, u);
-                const __m512 hi =
-                    _mm512_mul_ps(_mm512_mul_ps(kurt, _mm512_mul_ps(v, u)), _mm512_fmadd_ps(five, cu, four));
-                const __m512 inner = _mm512_add_ps(_mm512_fmadd_ps(three, cu, two), hi);
-                const __m512 kv = _mm512_mul_ps(_mm512_mul_ps(it, it), _mm512_fmadd_ps(v, inner, c));
-                acc[k][0] = _mm512_mask3_fmadd_ps(kv, p0, acc[k][0], lit);
-                acc[k][1] = _mm512_mask3_fmadd_ps(kv, p1, acc[k][1], lit);
-                acc[k][2] = _mm512_mask3_fmadd_ps(kv, p2, acc[k][2], lit);
+            for (int q = 0; q < T; ++q) {
+                const __m512 dx = _mm512_sub_ps(vnx[q], px);
+                const __m512 dy = _mm512_sub_ps(vny[q], py);
+                const __m512 dz = _mm512_sub_ps(vnz[q], pz);
+                const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
+                const __m512 omc = _mm512_fmadd_ps(hg, d2, g);
+                const __m512 c = _mm512_sub_ps(one, omc);
+                __m512 var = _mm512_mul_ps(cxx, nxx[q]);
+                var = _mm512_fmadd_ps(cyy, nyy[q], var);
+                var = _mm512_fmadd_ps(czz, nzz[q], var);
+                var = _mm512_fmadd_ps(cxy, nxy[q], var);
+                var = _mm512_fmadd_ps(cxz, nxz[q], var);
+                var = _mm512_fmadd_ps(cyz, nyz[q], var);
+                const __mmask16 lit = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_GT_OQ);
+                for (int k = 0; k < K; ++k) {
+                    const __m512 t = _mm512_fmadd_ps(vs[k], omc, vt2[k]);
+                    __m512 it = _mm512_maskz_rcp14_ps(0xffff, t);  // (rcp14_ps trips -Wmaybe-uninitialized on GCC 12)
+                    it = _mm512_mul_ps(it, _mm512_fnmadd_ps(t, it, two));
+                    const __m512 u = _mm512_mul_ps(vs[k], it), v = _mm512_mul_ps(var, u), cu = _mm512_mul_ps(c, u);
+                    const __m512 hi =
+                        _mm512_mul_ps(_mm512_mul_ps(kurt, _mm512_mul_ps(v, u)), _mm512_fmadd_ps(five, cu, four));
+                    const __m512 inner = _mm512_add_ps(_mm512_fmadd_ps(three, cu, two), hi);
+                    const __m512 kv = _mm512_mul_ps(_mm512_mul_ps(it, it), _mm512_fmadd_ps(v, inner, c));
+                    acc[q][k][0] = _mm512_mask3_fmadd_ps(kv, p0, acc[q][k][0], lit);
+                    acc[q][k][1] = _mm512_mask3_fmadd_ps(kv, p1, acc[q][k][1], lit);
+                    acc[q][k][2] = _mm512_mask3_fmadd_ps(kv, p2, acc[q][k][2], lit);
+                }
             }
         }
-        for (int k = 0; k < K; ++k)
-            for (int ch = 0; ch < 3; ++ch) {
-                alignas(64) float lanes[kLanes];
-                _mm512_store_ps(lanes, acc[k][ch]);
-                float t = 0.0f;
-                for (size_t l = 0; l < kLanes; ++l) t += lanes[l];
-                num[k][ch] += t;
-            }
+        for (int q = 0; q < T; ++q)
+            for (int k = 0; k < K; ++k)
+                for (int ch = 0; ch < 3; ++ch) {
+                    alignas(64) float lanes[kLanes];
+                    _mm512_store_ps(lanes, acc[q][k][ch]);
+                    float t = 0.0f;
+                    for (size_t l = 0; l < kLanes; ++l) t += lanes[l];
+                    num[q][k][ch] += t;
+                }
     }
 }
 #else
 // Plain lanes the compiler vectorises for the unit's instruction set (SSE2:
 // 4 at a time, AVX2 + FMA: 8).
-template <int K>
-void sums(const float* const* f, size_t count, const float* a2, float nx, float ny, float nz, double (*num)[3]) {
-    for (int k = 0; k < K; ++k) num[k][0] = num[k][1] = num[k][2] = 0.0;
+template <int K, int T>
+void sums(const float* const* f, size_t count, const float* a2, const float* dirs, double (*num)[kMaxLobes][3]) {
+    for (int q = 0; q < T; ++q)
+        for (int k = 0; k < K; ++k) num[q][k][0] = num[q][k][1] = num[q][k][2] = 0.0;
     float s[K], twoa2[K];
     for (int k = 0; k < K; ++k) {
         s[k] = 1.0f - a2[k];
         twoa2[k] = 2.0f * a2[k];
     }
-    const float nxx = nx * nx, nyy = ny * ny, nzz = nz * nz;
-    const float nxy = 2.0f * nx * ny, nxz = 2.0f * nx * nz, nyz = 2.0f * ny * nz;
+    float nx[T], ny[T], nz[T], nxx[T], nyy[T], nzz[T], nxy[T], nxz[T], nyz[T];
+    for (int q = 0; q < T; ++q) {
+        nx[q] = dirs[3 * q], ny[q] = dirs[3 * q + 1], nz[q] = dirs[3 * q + 2];
+        nxx[q] = nx[q] * nx[q], nyy[q] = ny[q] * ny[q], nzz[q] = nz[q] * nz[q];
+        nxy[q] = 2.0f * nx[q] * ny[q], nxz[q] = 2.0f * nx[q] * nz[q], nyz[q] = 2.0f * ny[q] * nz[q];
+    }
     const float *px = f[kPx], *py = f[kPy], *pz = f[kPz], *pg = f[kG], *q0 = f[kP0], *q1 = f[kP1], *q2 = f[kP2];
     const float *cxx = f[kCxx], *cyy = f[kCyy], *czz = f[kCzz], *cxy = f[kCxy], *cxz = f[kCxz], *cyz = f[kCyz];
     for (size_t b = 0; b < count; b += kBlock) {
         const size_t e = block_end(b, count);
-        alignas(64) float acc[K][3][kLanes] = {};
+        alignas(64) float acc[T][K][3][kLanes] = {};
         for (size_t p = b; p < e; p += kLanes) {
             for (size_t l = 0; l < kLanes; ++l) {
-                const size_t q = p + l;
-                const float dx = nx - px[q], dy = ny - py[q], dz = nz - pz[q];
-                const float g = pg[q];
-                const float omc = g + (1.0f - g) * 0.5f * (dx * dx + dy * dy + dz * dz);  // 1 - n.m
-                const float c = 1.0f - omc;
-                const float var =
-                    cxx[q] * nxx + cyy[q] * nyy + czz[q] * nzz + cxy[q] * nxy + cxz[q] * nxz + cyz[q] * nyz;
-                const float lit = c > 0.0f ? 1.0f : 0.0f;
-                for (int k = 0; k < K; ++k) {
-                    const float it = 1.0f / (s[k] * omc + twoa2[k]);
-                    const float u = s[k] * it, v = var * u, cu = c * u;
-                    const float kv =
-                        lit * (it * it * (c + v * (2.0f + 3.0f * cu + kKurtosis * v * u * (4.0f + 5.0f * cu))));
-                    acc[k][0][l] += kv * q0[q];
-                    acc[k][1][l] += kv * q1[q];
-                    acc[k][2][l] += kv * q2[q];
+                const size_t r = p + l;
+                for (int q = 0; q < T; ++q) {
+                    const float dx = nx[q] - px[r], dy = ny[q] - py[r], dz = nz[q] - pz[r];
+                    const float g = pg[r];
+                    const float omc = g + (1.0f - g) * 0.5f * (dx * dx + dy * dy + dz * dz);  // 1 - n.m
+                    const float c = 1.0f - omc;
+                    const float var = cxx[r] * nxx[q] + cyy[r] * nyy[q] + czz[r] * nzz[q] + cxy[r] * nxy[q] +
+                                      cxz[r] * nxz[q] + cyz[r] * nyz[q];
+                    const float lit = c > 0.0f ? 1.0f : 0.0f;
+                    for (int k = 0; k < K; ++k) {
+                        const float it = 1.0f / (s[k] * omc + twoa2[k]);
+                        const float u = s[k] * it, v = var * u, cu = c * u;
+                        const float kv =
+                            lit * (it * it * (c + v * (2.0f + 3.0f * cu + kKurtosis * v * u * (4.0f + 5.0f * cu))));
+                        acc[q][k][0][l] += kv * q0[r];
+                        acc[q][k][1][l] += kv * q1[r];
+                        acc[q][k][2][l] += kv * q2[r];
+                    }
                 }
             }
         }
-        for (int k = 0; k < K; ++k)
-            for (int ch = 0; ch < 3; ++ch) {
-                float t = 0.0f;
-                for (size_t l = 0; l < kLanes; ++l) t += acc[k][ch][l];
-                num[k][ch] += t;
-            }
+        for (int q = 0; q < T; ++q)
+            for (int k = 0; k < K; ++k)
+                for (int ch = 0; ch < 3; ++ch) {
+                    float t = 0.0f;
+                    for (size_t l = 0; l < kLanes; ++l) t += acc[q][k][ch][l];
+                    num[q][k][ch] += t;
+                }
     }
 }
 #endif
 
 }  // namespace
 
-void IBLBAKE_KERNEL_NAME(const float* const* f, size_t count, int lobes, const float* a2, float nx, float ny, float nz,
-                         double (*num)[3]) {
-    switch (lobes) {
-        case 1: sums<1>(f, count, a2, nx, ny, nz, num); break;
-        case 2: sums<2>(f, count, a2, nx, ny, nz, num); break;
-        case 3: sums<3>(f, count, a2, nx, ny, nz, num); break;
-        default: sums<4>(f, count, a2, nx, ny, nz, num); break;
+void IBLBAKE_KERNEL_NAME(const float* const* f, size_t count, int lobes, const float* a2, const float* dirs,
+                         int texels, double (*num)[kMaxLobes][3]) {
+    // K lobes at T texels a call, K T <= kMaxLobes: the accumulators stay
+    // in registers.
+    const int per_call = texels_per_call(lobes);
+    for (int q = 0; q < texels; q += per_call) {
+        const int m = texels - q < per_call ? texels - q : per_call;
+        const float* d = dirs + 3 * q;
+        double(*nq)[kMaxLobes][3] = num + q;
+        switch (lobes * 8 + m) {
+            case 9: sums<1, 1>(f, count, a2, d, nq); break;
+            case 10: sums<1, 2>(f, count, a2, d, nq); break;
+            case 11: sums<1, 3>(f, count, a2, d, nq); break;
+            case 12: sums<1, 4>(f, count, a2, d, nq); break;
+            case 17: sums<2, 1>(f, count, a2, d, nq); break;
+            case 18: sums<2, 2>(f, count, a2, d, nq); break;
+            case 25: sums<3, 1>(f, count, a2, d, nq); break;
+            default: sums<4, 1>(f, count, a2, d, nq); break;
+        }
     }
 }
 
