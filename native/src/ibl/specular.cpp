@@ -65,7 +65,13 @@ namespace {
 // source's texel (x, y) at at(x, y).
 template <typename At>
 inline void bilinear_row(At at, int w, int h, const double* fx, const double* fy, int n, float* out) {
+    constexpr int kAhead = 8;  // the rows of the lookup kAhead on, asked for now (the source outgrows the caches)
     for (int i = 0; i < n; ++i) {
+        if (i + kAhead < n) {
+            const int xa = std::clamp(int(fx[i + kAhead]), 0, w - 1), ya = std::clamp(int(fy[i + kAhead]), 0, h - 1);
+            __builtin_prefetch(at(xa, ya));
+            __builtin_prefetch(at(xa, std::min(ya + 1, h - 1)));
+        }
         const double x0f = std::floor(fx[i]), y0f = std::floor(fy[i]);
         const double tx = fx[i] - x0f, ty = fy[i] - y0f;
         int x0 = int(x0f);  // within one period of [0, w): wrapped without a division
