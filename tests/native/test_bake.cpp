@@ -14,6 +14,7 @@
 #include "iblbake/bake/lut_cache.h"
 #include "iblbake/ibl/specular.h"
 #include "iblbake/image/encode.h"
+#include "iblbake/io/hash.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/math/color.h"
 #include "iblbake/pipeline/bake_file.h"
@@ -256,6 +257,7 @@ TEST(LutCache, SecondBakeCopiesTheLutFilesTheFirstEncoded) {
         b.back() ^= 1;
         std::ofstream(e, std::ios::binary | std::ios::trunc) << b;
         EXPECT_FALSE(cache.copy_encoded(e.stem().string(), dir / "x"));
+        EXPECT_FALSE(fs::exists(dir / "x")) << "a damaged entry's bytes were left behind";
     }
     bake_file(src.string(), dir / "c", make_plan(small_options(), wo), {}, &cache);
     for (const char* f : {"brdf_lut.exr", "brdf_lut.png"}) EXPECT_EQ(bytes(dir / "a" / f), bytes(dir / "c" / f)) << f;
@@ -264,8 +266,10 @@ TEST(LutCache, SecondBakeCopiesTheLutFilesTheFirstEncoded) {
     // and the key is the table's pixels and the encoding.
     { std::ofstream(dir / "hello") << "hello"; }
     cache.store_encoded("k", dir / "hello");
-    ASSERT_TRUE(cache.copy_encoded("k", dir / "copy"));
+    std::string sha;
+    ASSERT_TRUE(cache.copy_encoded("k", dir / "copy", &sha));
     EXPECT_EQ(bytes(dir / "copy"), "hello");
+    EXPECT_EQ(sha, io::sha256_file((dir / "copy").string()));  // the copy's own digest, taken on the way
     EXPECT_FALSE(cache.copy_encoded("other", dir / "copy"));
     Image lut(4, 4);
     const std::string k = encoded_lut_key(lut, "exr");

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <system_error>
 
 #include "iblbake/io/hash.h"
@@ -166,19 +167,52 @@ std::string encoded_head(const std::string& key, const char* bytes, size_t size)
 }  // namespace
 
 bool FileLutCache::copy_encoded(const std::string& key, const fs::path& to, std::string* sha256) {
+    // The entry streamed to `to` in pieces, its bytes hashed once on the
+    // way (the checksum's payload digest, and the copy's sha256): a bake
+    // holds 256 KB of it at a time, not the whole file.
+    if (key.size() > kMaxKey) return false;
+    File in{open_entry(dir_ / (key + ".enc"))};
+    if (!in.f) return false;
+    struct stat st {};
     const size_t head = 8 + 64 + sizeof(uint32_t) + key.size();
-    const std::optional<std::string> entry = read_all(dir_ / (key + ".enc"), kMaxEncoded + head);
-    if (!entry || entry->size() < head || key.size() > kMaxKey) return false;
-    const char* bytes = entry->data() + head;
-    const size_t size = entry->size() - head;
-    // The magic, the key it was stored under and the checksum of both with the bytes.
-    if (entry->compare(0, head, encoded_head(key, bytes, size)) != 0) return false;  // damaged or misnamed
-    if (write_all(to, bytes, size)) {
-        if (sha256) *sha256 = io::sha256_bytes(bytes, size);
-        return true;
+    if (::fstat(::fileno(in.f), &st) != 0 || uintmax_t(st.st_size) < head ||
+        uintmax_t(st.st_size) > kMaxEncoded + head)
+        return false;
+    std::string got(head, '\0');
+    if (std::fread(got.data(), 1, head, in.f) != head) return false;
+    // The magic and the key it was stored under (the checksum is compared once the bytes are read).
+    const uint32_t n = uint32_t(key.size());
+    if (got.compare(0, 8, kEncodedMagic, 8) != 0 ||
+        got.compare(72, std::string::npos, std::string(reinterpret_cast<const char*>(&n), sizeof n) + key) != 0)
+        return false;  // damaged or misnamed
+    bool ok = false;
+    {
+        File out{std::fopen(to.c_str(), "wb")};
+        if (out.f) {
+            io::Sha256 payload;
+            constexpr size_t kChunk = size_t(1) << 18;
+            const std::unique_ptr<char[]> buf(new char[kChunk]);
+            size_t left = size_t(st.st_size) - head;
+            ok = true;
+            while (ok && left > 0) {
+                const size_t want = std::min(kChunk, left);
+                ok = std::fread(buf.get(), 1, want, in.f) == want && std::fwrite(buf.get(), 1, want, out.f) == want;
+                if (ok) payload.update(buf.get(), want);
+                left -= want;
+            }
+            char extra;
+            ok = ok && std::fread(&extra, 1, 1, in.f) == 0 && std::fflush(out.f) == 0;  // not grown while read
+            if (ok) {
+                const std::string digest = payload.hex();
+                const std::string keyed = key + '\n' + digest;
+                ok = got.compare(8, 64, io::sha256_bytes(keyed.data(), keyed.size())) == 0;  // entry_digest
+                if (ok && sha256) *sha256 = digest;
+            }
+        }
     }
+    if (ok) return true;
     std::error_code ec;
-    fs::remove(to, ec);  // the caller writes it itself
+    fs::remove(to, ec);  // damaged, or not written: the caller writes it itself
     return false;
 }
 

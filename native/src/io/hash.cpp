@@ -68,4 +68,9 @@ std::string sha256_bytes(const void* data, size_t size) {
     return d.hex();
 }
 
+Sha256::Sha256() : ctx_(new Digest) {}
+Sha256::~Sha256() { delete static_cast<Digest*>(ctx_); }
+void Sha256::update(const void* data, size_t size) { static_cast<Digest*>(ctx_)->update(data, size); }
+std::string Sha256::hex() { return static_cast<Digest*>(ctx_)->hex(); }
+
 }  // namespace iblbake::io
