@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "iblbake/math/cube.h"
 #include "iblbake/util/parallel.h"
 #include "reference.h"
+#include "specular_kernel.h"  // native/src/ibl: the kernels, called directly below
 
 using namespace iblbake;
 
@@ -432,6 +434,58 @@ TEST(Specular, TraversalLanesDecideAsTheScalarLoop) {
         }
     set_specular_traversal_lanes(true);
     set_specular_kernel_isa("");  // back to the best
+}
+
+// A texel's sums do not depend on the texels that share its call of the
+// kernel (kernel::texels_per_call(lobes) at a time, the tile's texels in
+// row-major order): each of 1 to 4 texels, with 1 to 4 lobes, gives the bits
+// it gives alone, for every kernel this CPU runs. (A kernel that mixed up its
+// texels' constants or accumulators would fail: the directions differ.)
+TEST(Specular, KernelSumsOfATexelDoNotDependOnItsCallmates) {
+    std::vector<std::pair<const char*, kernel::SumsFn>> fns{{"baseline", kernel::sums_baseline}};
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) fns.push_back({"avx2", kernel::sums_avx2});
+    if (__builtin_cpu_supports("avx512f")) fns.push_back({"avx512", kernel::sums_avx512});
+#endif
+    // 1040 bins (more than one block of 512), random moments.
+    const size_t count = 1040;
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f), pos(0.0f, 1.0f);
+    std::vector<float> f[kernel::kFields];
+    for (auto& v : f) v.resize(count);
+    for (size_t b = 0; b < count; ++b) {
+        Vec3 p{u(rng), u(rng), u(rng)};
+        p = length(p) > 0.0f ? normalize(p) : Vec3{0, 0, 1};
+        f[kernel::kPx][b] = p.x, f[kernel::kPy][b] = p.y, f[kernel::kPz][b] = p.z;
+        f[kernel::kG][b] = 0.01f * pos(rng);
+        for (int c = 0; c < 3; ++c) f[kernel::kP0 + c][b] = pos(rng);
+        for (int k = 0; k < 3; ++k) f[kernel::kCxx + k][b] = 1e-3f * pos(rng), f[kernel::kCxy + k][b] = 1e-4f * u(rng);
+    }
+    const float* fields[kernel::kFields];
+    for (int k = 0; k < kernel::kFields; ++k) fields[k] = f[k].data();
+    const float a2[kernel::kMaxLobes] = {2.4e-4f, 4e-3f, 0.05f, 0.6f};
+    float dirs[3 * 4];
+    for (int q = 0; q < 4; ++q) {
+        const Vec3 d = normalize(Vec3{0.3f + 0.05f * q, 0.8f - 0.1f * q, 0.2f * q - 0.3f});
+        dirs[3 * q] = d.x, dirs[3 * q + 1] = d.y, dirs[3 * q + 2] = d.z;
+    }
+    for (const auto& [name, sums] : fns)
+        for (int lobes = 1; lobes <= kernel::kMaxLobes; ++lobes)
+            for (int texels = 1; texels <= 4; ++texels) {
+                double together[4][kernel::kMaxLobes][3];
+                sums(fields, count, lobes, a2, dirs, texels, together);
+                for (int q = 0; q < texels; ++q) {
+                    double alone[1][kernel::kMaxLobes][3];
+                    sums(fields, count, lobes, a2, dirs + 3 * q, 1, alone);
+                    for (int g = 0; g < lobes; ++g)
+                        for (int c = 0; c < 3; ++c) {
+                            EXPECT_GT(alone[0][g][c], 0.0) << name;
+                            EXPECT_EQ(std::memcmp(&together[q][g][c], &alone[0][g][c], sizeof(double)), 0)
+                                << name << ": lobes " << lobes << ", texel " << q << " of " << texels << ", lobe " << g
+                                << ", channel " << c << ": " << together[q][g][c] << " against " << alone[0][g][c];
+                        }
+                }
+            }
 }
 
 TEST(Specular, EveryKernelIsaAgreesWithTheBaseline) {
