@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -17,6 +18,31 @@
 namespace iblbake {
 
 namespace {
+
+// Whether the 16 flags at f (each exactly 0.0f or 1.0f) are all `value`
+// (1.0f or 0.0f), from their bits: their AND is 1.0f's only when all are
+// 1.0f, their OR 0 only when all are 0.0f (a float sum was a chain of 16
+// dependent adds).
+inline bool all_flags(const float* f, float value) {
+    uint32_t want;
+    std::memcpy(&want, &value, sizeof want);
+#ifdef __SSE2__
+    const __m128i* v = reinterpret_cast<const __m128i*>(f);
+    const __m128i a = _mm_loadu_si128(v), b = _mm_loadu_si128(v + 1), c = _mm_loadu_si128(v + 2),
+                  d = _mm_loadu_si128(v + 3);
+    const __m128i all = want ? _mm_and_si128(_mm_and_si128(a, b), _mm_and_si128(c, d))
+                             : _mm_or_si128(_mm_or_si128(a, b), _mm_or_si128(c, d));
+    return _mm_movemask_epi8(_mm_cmpeq_epi32(all, _mm_set1_epi32(int(want)))) == 0xffff;
+#else
+    uint32_t all = want ? ~0u : 0u;
+    for (int l = 0; l < 16; ++l) {
+        uint32_t b;
+        std::memcpy(&b, f + l, sizeof b);
+        all = want ? all & b : all | b;
+    }
+    return all == want;
+#endif
+}
 
 // One output direction against the bin groups: the groups in kLanes
 // independent float partials (kernel::irr_sum_fn, built for the CPU's
@@ -40,34 +66,35 @@ void convolve_direction(const BinGroups& g, const Vec3d& n, float out[3]) {
     kernel::irr_horizon_fn()(cx, cy, cz, sr, count, nx, ny, nz, wg);  // vectorised for the CPU
     // Branch-free compaction, 16 groups at a time; most runs lie wholly on
     // one side (only a band about the horizon's great circle is across), and
-    // a run whose flags sum to 16 is skipped after one vectorised sum.
+    // a run whose flags are all 1 is skipped after one vectorised test.
     size_t n_across = 0;
     for (size_t p0 = 0; p0 < count; p0 += kLanes) {
         const size_t e = std::min(count, p0 + kLanes);
-        if (e - p0 == kLanes) {
-            float s = 0.0f;
-            for (size_t l = 0; l < kLanes; ++l) s += wg[p0 + l];
-            if (s == float(kLanes)) continue;
-        }
+        if (e - p0 == kLanes && all_flags(wg + p0, 1.0f)) continue;
         for (size_t p = p0; p < e; ++p) {
+            uint32_t bits;  // the flag's bits: 0.0f is 0 (a float compare costs a parity test too)
+            std::memcpy(&bits, wg + p, sizeof bits);
             ac[n_across] = uint32_t(p);
-            n_across += wg[p] == 0.0f;
+            n_across += bits == 0u;
         }
     }
+    double total[3];
     for (int c = 0; c < 3; ++c) {
         const float* x = g.vx[c].data();
         const float* y = g.vy[c].data();
         const float* z = g.vz[c].data();
-        double total = sum(x, y, z, wg, whole, nx, ny, nz);
-        for (size_t p = whole; p < count; ++p) total += wg[p] * std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
-        // Groups across the horizon, bin by bin.
-        // The four bins' cosines side by side (each evaluated as before),
-        // added in their order: the same sum to the bit, a quarter of the
-        // arithmetic instructions.
-        float t = 0.0f;
-        const float *bx = g.bx[c].data(), *by = g.by[c].data(), *bz = g.bz[c].data();
-        for (size_t q = 0; q < n_across; ++q) {
-            const size_t k = 4 * size_t(ac[q]);
+        total[c] = sum(x, y, z, wg, whole, nx, ny, nz);
+        for (size_t p = whole; p < count; ++p) total[c] += wg[p] * std::max(0.0f, nx * x[p] + ny * y[p] + nz * z[p]);
+    }
+    // Groups across the horizon, bin by bin. The four bins' cosines side by
+    // side (each evaluated as before), added in their order: the same sum to
+    // the bit, a quarter of the arithmetic instructions; the three channels'
+    // sums in one loop (three chains of adds side by side, each in its order).
+    float t[3] = {0.0f, 0.0f, 0.0f};
+    for (size_t q = 0; q < n_across; ++q) {
+        const size_t k = 4 * size_t(ac[q]);
+        for (int c = 0; c < 3; ++c) {
+            const float *bx = g.bx[c].data(), *by = g.by[c].data(), *bz = g.bz[c].data();
             float d[4];
 #ifdef __SSE2__
             // max(v, 0) as maxps takes it: 0 for NaN and -0, as std::max(0, v).
@@ -78,13 +105,13 @@ void convolve_direction(const BinGroups& g, const Vec3d& n, float out[3]) {
 #else
             for (int l = 0; l < 4; ++l) d[l] = std::max(0.0f, nx * bx[k + l] + ny * by[k + l] + nz * bz[k + l]);
 #endif
-            t += d[0];
-            t += d[1];
-            t += d[2];
-            t += d[3];
+            t[c] += d[0];
+            t[c] += d[1];
+            t[c] += d[2];
+            t[c] += d[3];
         }
-        out[c] = float((total + t) / kPi);
     }
+    for (int c = 0; c < 3; ++c) out[c] = float((total[c] + t[c]) / kPi);
 }
 
 // The hot points as structure-of-arrays: mean direction m, covariance,
@@ -136,11 +163,7 @@ void hot_direction(const HotPoints& h, const Vec3d& n, float out[3]) {
     for (size_t k = whole; k < h.count; ++k) term(k, 0);
     for (size_t k0 = 0; k0 < h.count; k0 += kLanes) {  // branch-free compaction of the runs with any marked
         const size_t e = std::min(h.count, k0 + kLanes);
-        if (e - k0 == kLanes) {
-            float any = 0.0f;
-            for (size_t l = 0; l < kLanes; ++l) any += mk[k0 + l];
-            if (any == 0.0f) continue;
-        }
+        if (e - k0 == kLanes && all_flags(mk + k0, 0.0f)) continue;
         for (size_t k = k0; k < e; ++k) {
             near[n_near] = uint32_t(k);
             n_near += mk[k] != 0.0f;
