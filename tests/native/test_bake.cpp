@@ -205,6 +205,13 @@ TEST(LutCache, SecondBakeReadsTheFirstOnesLut) {
     const BakeResult b = compute_bake(ref::constant_source(8, 4, 2.0f), o, {}, &cache);
     EXPECT_TRUE(b.lut_from_cache);
     EXPECT_EQ(a.lut->pixels, b.lut->pixels);  // exact: full-float round trip
+    // The pixels' sha256 comes with the table (stored, then found): the key
+    // of its encoded files, not hashed again; without a cache it is unknown.
+    const std::string sha = io::sha256_bytes(a.lut->pixels.data(), a.lut->pixels.size() * sizeof(float));
+    EXPECT_EQ(a.lut_sha256, sha);
+    EXPECT_EQ(b.lut_sha256, sha);
+    EXPECT_EQ(encoded_lut_key_of(sha, "exr"), encoded_lut_key(*a.lut, "exr"));
+    EXPECT_TRUE(compute_bake(ref::constant_source(8, 4, 1.0f), o).lut_sha256.empty());
     // Another model or quality is another entry.
     o.lut_model = LutModel::HeightCorrelated;
     EXPECT_FALSE(compute_bake(ref::constant_source(8, 4, 1.0f), o, {}, &cache).lut_from_cache);

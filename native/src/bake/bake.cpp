@@ -191,12 +191,14 @@ void warn_if_black(BakeResult& r) {
 
 void lut_stage(BakeResult& r, const BakeOptions& o, LutCache* lut_cache) {
     const std::string key = lut_cache_key(o.lut_size, o.lut_model, o.lut_quality);
-    if (lut_cache) r.lut = lut_cache->load(key);
+    r.lut_sha256.clear();
+    if (lut_cache) r.lut = lut_cache->load(key, &r.lut_sha256);
     if (r.lut && (r.lut->width != o.lut_size || r.lut->height != o.lut_size)) r.lut.reset();
     r.lut_from_cache = bool(r.lut);
     if (!r.lut) {
+        r.lut_sha256.clear();
         r.lut = bake_brdf_lut(o.lut_size, o.lut_model, o.lut_quality);
-        if (lut_cache) lut_cache->store(key, *r.lut);
+        if (lut_cache) lut_cache->store(key, *r.lut, &r.lut_sha256);
     }
 }
 
@@ -238,7 +240,7 @@ public:
             try {
                 if (o.lut) {
                     lut_stage(r, o, cache);
-                    if (sink) sink->lut(*r.lut);
+                    if (sink) sink->lut(*r.lut, r.lut_sha256);
                 }
                 extra_lut_stage(r, o, cache);
             } catch (...) {
@@ -1197,7 +1199,7 @@ BakeResult compute_constant_bake(const std::array<float, 3>& rgb, const BakeOpti
         if (o.lut) {
             report("brdf_lut", 0.5);
             lut_stage(r, o, lut_cache);
-            if (sink) sink->lut(*r.lut);
+            if (sink) sink->lut(*r.lut, r.lut_sha256);
             clock.done("brdf_lut");
         } else {
             r.skipped.push_back(skip_reason(o, "brdf_lut", "disabled by option"));

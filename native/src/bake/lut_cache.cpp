@@ -49,8 +49,14 @@ std::string tmp_tag() {
 constexpr char kMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', '3', char(sizeof(int) * 16 + sizeof(float))};
 constexpr uint32_t kMaxKey = 1024;
 
+// The checksum of an entry whose payload's sha256 is `payload_sha256`.
+std::string entry_digest_of(const std::string& key, const std::string& payload_sha256) {
+    const std::string keyed = key + '\n' + payload_sha256;
+    return io::sha256_bytes(keyed.data(), keyed.size());
+}
+
 std::string entry_digest(const std::string& key, const void* payload, size_t bytes) {
-    return io::sha256_bytes((key + '\n' + io::sha256_bytes(payload, bytes)).data(), key.size() + 65);
+    return entry_digest_of(key, io::sha256_bytes(payload, bytes));
 }
 
 struct File {
@@ -85,7 +91,7 @@ bool write_key(std::FILE* f, const std::string& key) {
 
 }  // namespace
 
-std::optional<Image> FileLutCache::load(const std::string& key) {
+std::optional<Image> FileLutCache::load(const std::string& key, std::string* pixels_sha256) {
     File file{open_entry(dir_ / (key + ".lut"))};
     if (!file.f) return std::nullopt;
     char magic[8];
@@ -102,12 +108,15 @@ std::optional<Image> FileLutCache::load(const std::string& key) {
     char extra;
     if (std::fread(&extra, 1, 1, file.f) != 0) return std::nullopt;  // too long: not what we wrote
     if (!all_finite(lut.pixels)) return std::nullopt;
-    if (entry_digest(key, lut.pixels.data(), lut.pixels.size() * sizeof(float)) != std::string(digest, 64))
-        return std::nullopt;  // damaged
+    std::string sha = io::sha256_bytes(lut.pixels.data(), lut.pixels.size() * sizeof(float));
+    if (entry_digest_of(key, sha) != std::string(digest, 64)) return std::nullopt;  // damaged
+    if (pixels_sha256) *pixels_sha256 = std::move(sha);
     return lut;
 }
 
-void FileLutCache::store(const std::string& key, const Image& lut) {
+void FileLutCache::store(const std::string& key, const Image& lut, std::string* pixels_sha256) {
+    const std::string sha = io::sha256_bytes(lut.pixels.data(), lut.pixels.size() * sizeof(float));
+    if (pixels_sha256) *pixels_sha256 = sha;  // whether or not the entry can be written
     std::error_code ec;
     fs::create_directories(dir_, ec);
     if (ec || key.size() > kMaxKey) return;  // a cache that cannot be written is not an error
@@ -117,7 +126,7 @@ void FileLutCache::store(const std::string& key, const Image& lut) {
     {
         File file{std::fopen(tmp.c_str(), "wb")};
         const int32_t wh[2] = {lut.width, lut.height};
-        const std::string digest = entry_digest(key, lut.pixels.data(), lut.pixels.size() * sizeof(float));
+        const std::string digest = entry_digest_of(key, sha);
         ok = file.f && std::fwrite(kMagic, 1, 8, file.f) == 8 && std::fwrite(wh, sizeof(int32_t), 2, file.f) == 2 &&
              std::fwrite(digest.data(), 1, 64, file.f) == 64 && write_key(file.f, key) &&
              std::fwrite(lut.pixels.data(), sizeof(float), lut.pixels.size(), file.f) == lut.pixels.size() &&
@@ -128,7 +137,11 @@ void FileLutCache::store(const std::string& key, const Image& lut) {
 }
 
 std::string encoded_lut_key(const Image& lut, const std::string& encoding) {
-    return "brdf_lut-file-" + io::sha256_bytes(lut.pixels.data(), lut.pixels.size() * sizeof(float)) + "-" + encoding;
+    return encoded_lut_key_of(io::sha256_bytes(lut.pixels.data(), lut.pixels.size() * sizeof(float)), encoding);
+}
+
+std::string encoded_lut_key_of(const std::string& pixels_sha256, const std::string& encoding) {
+    return "brdf_lut-file-" + pixels_sha256 + "-" + encoding;
 }
 
 namespace {
@@ -204,8 +217,7 @@ bool FileLutCache::copy_encoded(const std::string& key, const fs::path& to, std:
             ok = ok && std::fread(&extra, 1, 1, in.f) == 0 && std::fflush(out.f) == 0;  // not grown while read
             if (ok) {
                 const std::string digest = payload.hex();
-                const std::string keyed = key + '\n' + digest;
-                ok = got.compare(8, 64, io::sha256_bytes(keyed.data(), keyed.size())) == 0;  // entry_digest
+                ok = got.compare(8, 64, entry_digest_of(key, digest)) == 0;
                 if (ok && sha256) *sha256 = digest;
             }
         }

@@ -308,9 +308,12 @@ struct BakeWriter::Impl {
 
     // A LUT's file: copied from the cache's copy for the same LUT and
     // encoding when it has one, else written (and kept there).
-    void lut_file(const Image& lut, const char* encoding, const fs::path& path, const std::function<void()>& write) {
+    // pixels_sha256: the table's pixels' sha256 when known (else hashed here).
+    void lut_file(const Image& lut, const char* encoding, const fs::path& path, const std::function<void()>& write,
+                  const std::string& pixels_sha256 = "") {
         if (!lut_cache) return write();
-        const std::string key = encoded_lut_key(lut, encoding);
+        const std::string key =
+            pixels_sha256.empty() ? encoded_lut_key(lut, encoding) : encoded_lut_key_of(pixels_sha256, encoding);
         std::string sha;
         if (lut_cache->copy_encoded(key, path, &sha)) {
             // The bytes' sha256, verified by the copy: hash() need not read them again.
@@ -369,15 +372,15 @@ void BakeWriter::cube(const std::string& stem, const Cubemap& cube) {
     im.run(stem, [&im, dir, stem, &cube](json& e) { write_cross(dir, stem, cube, im.wo, e, im.poll); });
 }
 
-void BakeWriter::lut(const Image& lut) {
+void BakeWriter::lut(const Image& lut, const std::string& pixels_sha256) {
     Impl& im = *impl_;
     const fs::path dir = im.staging.path();
-    im.run("brdf_lut", [&im, dir, &lut](json& e) {
+    im.run("brdf_lut", [&im, dir, &lut, pixels_sha256](json& e) {
         im.poll();
         // The same table is written the same way by every bake with these
         // settings: its file comes from the cache when it can.
         auto cached = [&](const fs::path& path, const char* encoding, const std::function<void()>& write) {
-            im.lut_file(lut, encoding, path, write);
+            im.lut_file(lut, encoding, path, write, pixels_sha256);
         };
         if (im.wo.exr) {
             const fs::path p = dir / "brdf_lut.exr";
@@ -492,7 +495,7 @@ json write_bake(const BakeResult& r, const fs::path& outdir, const BakePlan& pla
     w.computed();  // the caller's bake is done: every write polls
     if (r.irradiance) w.cube("irradiance", *r.irradiance);
     for (size_t i = 0; i < r.specular.size(); ++i) w.cube("specular_" + std::to_string(r.specular_levels[i]), r.specular[i]);
-    if (r.lut) w.lut(*r.lut);
+    if (r.lut) w.lut(*r.lut, r.lut_sha256);
     return w.finish(r, src);
 }
 

@@ -109,6 +109,10 @@ struct BakeResult {
     std::vector<int> specular_levels;  // mip level of each entry of `specular`
     std::vector<double> roughness;
     std::optional<Image> lut;
+    // The sha256 of lut's pixels when the LUT cache gave it (the entry's own
+    // checksum took it, or store() did), else empty: the key of the LUT's
+    // encoded files (encoded_lut_key) without hashing the table again.
+    std::string lut_sha256;
     std::array<Sh9, 3> sh9{};
     BadInputCounts bad_input;
     std::vector<Skip> skipped;
@@ -159,7 +163,8 @@ class OutputSink {
 public:
     virtual ~OutputSink() = default;
     virtual void cube(const std::string& stem, const Cubemap& cube) = 0;
-    virtual void lut(const Image& lut) = 0;
+    // pixels_sha256: BakeResult::lut_sha256 (may be empty).
+    virtual void lut(const Image& lut, const std::string& pixels_sha256) = 0;
     virtual void wait() = 0;  // everything handed over is done with; rethrows its first failure
 };
 

@@ -21,8 +21,11 @@ std::string lut_cache_key(int size, LutModel model, const LutQuality& q);
 class LutCache {
 public:
     virtual ~LutCache() = default;
-    virtual std::optional<Image> load(const std::string& key) = 0;
-    virtual void store(const std::string& key, const Image& lut) = 0;
+    // `pixels_sha256`, when given, receives the sha256 of the table's pixels
+    // (their bytes as floats) when the cache knows it (load: the table found;
+    // store: the table stored), else is left empty.
+    virtual std::optional<Image> load(const std::string& key, std::string* pixels_sha256 = nullptr) = 0;
+    virtual void store(const std::string& key, const Image& lut, std::string* pixels_sha256 = nullptr) = 0;
     // A LUT's file as a writer encoded it (encoded_lut_key()): copied to `to`
     // when cached (false: not cached, `to` untouched), stored from `from`.
     // Copying the bytes is cheaper than encoding the table again (a zip
@@ -39,6 +42,8 @@ public:
 // names the container, the pixel type and the writer's version), so a file
 // is only ever reused for the very same table written the same way.
 std::string encoded_lut_key(const Image& lut, const std::string& encoding);
+// The same from the pixels' sha256 when it is known (LutCache::load, store).
+std::string encoded_lut_key_of(const std::string& pixels_sha256, const std::string& encoding);
 
 // Raw float files (<key>.lut) in a folder, read back in one call; writes are
 // atomic (temporary file, then rename); unreadable, truncated or foreign
@@ -46,8 +51,8 @@ std::string encoded_lut_key(const Image& lut, const std::string& encoding);
 class FileLutCache : public LutCache {
 public:
     explicit FileLutCache(std::filesystem::path dir) : dir_(std::move(dir)) {}
-    std::optional<Image> load(const std::string& key) override;
-    void store(const std::string& key, const Image& lut) override;
+    std::optional<Image> load(const std::string& key, std::string* pixels_sha256 = nullptr) override;
+    void store(const std::string& key, const Image& lut, std::string* pixels_sha256 = nullptr) override;
     // <key>.enc: a magic, the sha256 of the bytes, the bytes; a damaged
     // entry is a miss (and is replaced by the next store_encoded()).
     bool copy_encoded(const std::string& key, const std::filesystem::path& to, std::string* sha256 = nullptr) override;
