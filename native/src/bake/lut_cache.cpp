@@ -50,13 +50,9 @@ constexpr char kMagic[8] = {'I', 'B', 'L', 'L', 'U', 'T', '3', char(sizeof(int) 
 constexpr uint32_t kMaxKey = 1024;
 
 // The checksum of an entry whose payload's sha256 is `payload_sha256`.
-std::string entry_digest_of(const std::string& key, const std::string& payload_sha256) {
+std::string entry_digest(const std::string& key, const std::string& payload_sha256) {
     const std::string keyed = key + '\n' + payload_sha256;
     return io::sha256_bytes(keyed.data(), keyed.size());
-}
-
-std::string entry_digest(const std::string& key, const void* payload, size_t bytes) {
-    return entry_digest_of(key, io::sha256_bytes(payload, bytes));
 }
 
 struct File {
@@ -109,7 +105,7 @@ std::optional<Image> FileLutCache::load(const std::string& key, std::string* pix
     if (std::fread(&extra, 1, 1, file.f) != 0) return std::nullopt;  // too long: not what we wrote
     if (!all_finite(lut.pixels)) return std::nullopt;
     std::string sha = io::sha256_bytes(lut.pixels.data(), lut.pixels.size() * sizeof(float));
-    if (entry_digest_of(key, sha) != std::string(digest, 64)) return std::nullopt;  // damaged
+    if (entry_digest(key, sha) != std::string(digest, 64)) return std::nullopt;  // damaged
     if (pixels_sha256) *pixels_sha256 = std::move(sha);
     return lut;
 }
@@ -126,7 +122,7 @@ void FileLutCache::store(const std::string& key, const Image& lut, std::string* 
     {
         File file{std::fopen(tmp.c_str(), "wb")};
         const int32_t wh[2] = {lut.width, lut.height};
-        const std::string digest = entry_digest_of(key, sha);
+        const std::string digest = entry_digest(key, sha);
         ok = file.f && std::fwrite(kMagic, 1, 8, file.f) == 8 && std::fwrite(wh, sizeof(int32_t), 2, file.f) == 2 &&
              std::fwrite(digest.data(), 1, 64, file.f) == 64 && write_key(file.f, key) &&
              std::fwrite(lut.pixels.data(), sizeof(float), lut.pixels.size(), file.f) == lut.pixels.size() &&
@@ -171,9 +167,10 @@ bool write_all(const fs::path& p, const char* data, size_t size) {
 
 constexpr uintmax_t kMaxEncoded = uintmax_t(1) << 30;  // a 4096^2 float LUT is 200 MB
 
-std::string encoded_head(const std::string& key, const char* bytes, size_t size) {
+// The head of key's entry for a payload whose sha256 is `payload_sha256`.
+std::string encoded_head(const std::string& key, const std::string& payload_sha256) {
     const uint32_t n = uint32_t(key.size());
-    return std::string(kEncodedMagic, 8) + entry_digest(key, bytes, size) +
+    return std::string(kEncodedMagic, 8) + entry_digest(key, payload_sha256) +
            std::string(reinterpret_cast<const char*>(&n), sizeof n) + key;
 }
 
@@ -216,9 +213,9 @@ bool FileLutCache::copy_encoded(const std::string& key, const fs::path& to, std:
             char extra;
             ok = ok && std::fread(&extra, 1, 1, in.f) == 0 && std::fflush(out.f) == 0;  // not grown while read
             if (ok) {
-                const std::string digest = payload.hex();
-                ok = got.compare(8, 64, entry_digest_of(key, digest)) == 0;
-                if (ok && sha256) *sha256 = digest;
+                std::string digest = payload.hex();
+                ok = got == encoded_head(key, digest);  // the whole head, checksum included
+                if (ok && sha256) *sha256 = std::move(digest);
             }
         }
     }
@@ -235,7 +232,7 @@ void FileLutCache::store_encoded(const std::string& key, const fs::path& from) {
     std::error_code ec;
     fs::create_directories(dir_, ec);
     if (ec) return;  // a cache that cannot be written is not an error
-    const std::string entry = encoded_head(key, bytes->data(), bytes->size()) + *bytes;
+    const std::string entry = encoded_head(key, io::sha256_bytes(bytes->data(), bytes->size())) + *bytes;
     const fs::path tmp = dir_ / (key + ".tmp-" + tmp_tag() + ".enc");
     if (write_all(tmp, entry.data(), entry.size())) fs::rename(tmp, dir_ / (key + ".enc"), ec);
     fs::remove(tmp, ec);

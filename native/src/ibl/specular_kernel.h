@@ -27,7 +27,7 @@ constexpr int kMaxLobes = 4;
 // one call (texels_per_call at a time), their distances and variances by the
 // lobes; each texel's sums are the same to the bit however many share the
 // call. num[q][k][ch].
-constexpr int texels_per_call(int lobes) { return lobes < 1 ? kMaxLobes : kMaxLobes / lobes < 1 ? 1 : kMaxLobes / lobes; }
+constexpr int texels_per_call(int lobes) { return lobes <= 1 ? kMaxLobes : lobes >= kMaxLobes ? 1 : kMaxLobes / lobes; }
 using SumsFn = void (*)(const float* const* fields, size_t count, int lobes, const float* a2, const float* dirs,
                         int texels, double (*num)[kMaxLobes][3]);
 

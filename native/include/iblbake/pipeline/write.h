@@ -52,7 +52,7 @@ public:
     BakeWriter(const BakeWriter&) = delete;
     BakeWriter& operator=(const BakeWriter&) = delete;
     void cube(const std::string& stem, const Cubemap& cube) override;
-    void lut(const Image& lut, const std::string& pixels_sha256 = "") override;
+    void lut(const Image& lut, const std::string& pixels_sha256) override;
     void wait() override;
     // The bake is computed: writes poll `progress` from now on (finish() says so itself).
     void computed();
