@@ -772,22 +772,32 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     // The (bin, channel) pairs by bucket, largest first (in order of index within one).
     // (Four histograms in turn: one alone was a chain of stores and loads
     // of the same count, keys of one exponent being common.)
+    // (Through local pointers: a byte's store may alias anything, and the
+    // vectors' own pointers, thread-local, were loaded again after each.)
     uint32_t count_in[4][256] = {};
     bucket_of.resize(3 * n);
-    for (size_t q = 0; q < 3 * n; ++q) {
-        uint32_t bits;
-        std::memcpy(&bits, &key[q], sizeof(bits));
-        const uint32_t bk = key[q] > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
-        bucket_of[q] = uint8_t(bk);
-        ++count_in[q & 3][bk];
+    {
+        const float* kq = key.data();
+        uint8_t* bq = bucket_of.data();
+        for (size_t q = 0; q < 3 * n; ++q) {
+            uint32_t bits;
+            std::memcpy(&bits, &kq[q], sizeof(bits));
+            const uint32_t bk = kq[q] > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
+            bq[q] = uint8_t(bk);
+            ++count_in[q & 3][bk];
+        }
     }
     uint32_t start[256];
     uint32_t sum = 0;
     for (int k = 255; k >= 1; --k)
         start[k] = sum, sum += count_in[0][k] + count_in[1][k] + count_in[2][k] + count_in[3][k];
     order.resize(sum);
-    for (size_t q = 0; q < 3 * n; ++q)
-        if (bucket_of[q]) order[start[bucket_of[q]]++] = uint32_t(q);  // q = c n + b
+    {
+        const uint8_t* bq = bucket_of.data();
+        uint32_t* oq = order.data();
+        for (size_t q = 0; q < 3 * n; ++q)
+            if (bq[q]) oq[start[bq[q]]++] = uint32_t(q);  // q = c n + b
+    }
     thread_local std::vector<uint8_t> taken;  // per bin: its channels taken on their own (bits)
     thread_local std::vector<uint32_t> took;  // the bins taken, in the order first taken
     taken.assign(n, 0);
@@ -795,18 +805,25 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     thread_local std::vector<const ChromaBin*> took_cb;  // their ChromaBins
     took_cb.resize(n);
     size_t nt = 0;
-    for (const uint32_t q : order) {
-        if (!over()) break;
-        const int c = int(q >= n) + int(q >= 2 * n);  // q = c n + b
-        const size_t b = q - size_t(c) * n;
-        for (int g = 0; g < K; ++g) total[g][c] -= est[(size_t(g) * 3 + c) * n + b];
-        if (!taken[b]) {
-            const ChromaBin* cb = &tree.chroma_of(*chromatic[b]);
-            __builtin_prefetch(cb);  // read below
-            took_cb[nt] = cb;
-            took[nt++] = uint32_t(b);
+    {
+        const float* eq = est.data();
+        const BinNode* const* cq = chromatic.data();
+        uint8_t* tq = taken.data();
+        uint32_t* bq = took.data();
+        const ChromaBin** cbq = took_cb.data();
+        for (const uint32_t q : order) {
+            if (!over()) break;
+            const int c = int(q >= n) + int(q >= 2 * n);  // q = c n + b
+            const size_t b = q - size_t(c) * n;
+            for (int g = 0; g < K; ++g) total[g][c] -= eq[(size_t(g) * 3 + c) * n + b];
+            if (!tq[b]) {
+                const ChromaBin* cb = &tree.chroma_of(*cq[b]);
+                __builtin_prefetch(cb);  // read below
+                cbq[nt] = cb;
+                bq[nt++] = uint32_t(b);
+            }
+            tq[b] |= uint8_t(1u << c);
         }
-        taken[b] |= uint8_t(1u << c);
     }
     // The bins taken: their taken channels' power zeroed in place; the bins
     // with every channel taken dropped, each replaced by the last entry (in
