@@ -187,16 +187,29 @@ void expect_same_split(const HotSplit& a, const HotSplit& b) {
     }
 }
 
-HotSplit hot_in_bands(const Image& img, int band, bool backwards, int max_hot, double rel, const HotRows& rows) {
+// through_summary: the rows reach the stream from SummaryStream::add_rows
+// (the streamed bake's one pass over a band), on a copy of the image.
+HotSplit hot_in_bands(const Image& img, int band, bool backwards, int max_hot, double rel, const HotRows& rows,
+                      bool through_summary = false) {
     HotStream stream(img.width, img.height, max_hot);
+    Image copy = img;
+    SummaryStream sums(img.width, img.height);
     std::vector<int> starts;
     for (int y = 0; y < img.height; y += band) starts.push_back(y);
     if (backwards) std::reverse(starts.begin(), starts.end());
     for (int y0 : starts) {
         const int n = std::min(band, img.height - y0);
-        std::vector<const float*> r(n);
-        for (int k = 0; k < n; ++k) r[k] = img.at(0, y0 + k);
-        stream.add_rows(r.data(), y0, n);
+        std::vector<float*> r(n);
+        for (int k = 0; k < n; ++k) r[k] = copy.at(0, y0 + k);
+        if (through_summary) {
+            sums.add_rows(r.data(), y0, n, &stream);
+        } else {
+            stream.add_rows(r.data(), y0, n);
+        }
+    }
+    if (through_summary) {
+        const SourceSummary s = sums.finish();
+        EXPECT_EQ(s.hot.mean, rows.mean);  // the summary of the same clean rows
     }
     return stream.finish(rel, rows);
 }
@@ -233,7 +246,10 @@ TEST(HotStream, BandsEqualSplitHot) {
                 }
                 for (int band : {1, 7, 200})
                     for (bool backwards : {false, true})
-                        expect_same_split(hot_in_bands(img, band, backwards, max_hot, rel, summary.hot), expected);
+                        for (bool through_summary : {false, true})
+                            expect_same_split(
+                                hot_in_bands(img, band, backwards, max_hot, rel, summary.hot, through_summary),
+                                expected);
             }
     }
 }

@@ -966,8 +966,7 @@ struct BandReducers {
         return r;
     }
     void add(BandRing& ring, float* const* rows, int y0, int n) {
-        sums.add_rows(rows, y0, n);
-        if (hots) hots->add_rows(rows, y0, n);
+        sums.add_rows(rows, y0, n, hots.get());  // each row to hots too, while in the cache
         const ImageView v = ring.view();
         for (auto* s : {bins.get(), irr_bins.get()})
             if (s) s->add_rows(v, ring.have0(), ring.have1());

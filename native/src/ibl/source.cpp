@@ -677,8 +677,9 @@ struct SummaryStream::Impl {
 SummaryStream::SummaryStream(int width, int height) : impl_(std::make_unique<Impl>(width, height)) {}
 SummaryStream::~SummaryStream() = default;
 
-void SummaryStream::add_rows(float* const* rows, int y0, int n) {
+void SummaryStream::add_rows(float* const* rows, int y0, int n, HotStream* hots) {
     Impl& m = *impl_;
+    if (hots) hots->begin_rows(y0, n);
     parallel_for(0, n, [&](int k) {
         const int y = y0 + k;
         float* row = rows[k];
@@ -688,7 +689,9 @@ void SummaryStream::add_rows(float* const* rows, int y0, int n) {
         if (s.bad.pixels) clean_values(row, row, size_t(m.w) * 3);
         m.sh.row(row, y);
         hot_row(row, m.w, y, m.tab, m.hot);
+        if (hots) hots->add_row(k, row);
     });
+    if (hots) hots->end_rows();
 }
 
 SourceSummary SummaryStream::finish() {
@@ -716,29 +719,40 @@ HotStream::HotStream(int width, int height, int max_hot)
 HotStream::~HotStream() = default;
 
 void HotStream::add_rows(const float* const* rows, int y0, int n) {
+    begin_rows(y0, n);
+    parallel_for(0, n, [&](int k) { add_row(k, rows[k]); });
+    end_rows();
+}
+
+void HotStream::begin_rows(int y0, int n) {
     // Texels above the heap's floor (its smallest once full), per row in
     // parallel, then merged: a stale floor only admits more candidates.
-    const float floor = top_.size() >= keep_ ? top_.front().m : -1.0f;
-    std::vector<std::vector<Entry>> found(n);
-    parallel_for(0, n, [&](int k) {
-        const float* row = rows[k];
-        for (int x = 0; x < w_; ++x) {
-            const float* px = row + size_t(x) * 3;
-            const float m = max3(px);
-            if (m > floor) found[k].push_back({m, x, y0 + k, {px[0], px[1], px[2]}});
-        }
-        // Only a row's keep_ largest can be among the keep_ largest of all
-        // (`larger` is a strict total order): the rest need not wait for the
-        // merge (a whole band of candidates was 24 bytes a texel, 50 MB for
-        // a 16K band of 128 rows, while the heap was filling).
-        std::vector<Entry>& f = found[k];
-        if (f.size() > keep_) {
-            std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(keep_ - 1), f.end(), larger);
-            f.resize(keep_);
-            f.shrink_to_fit();
-        }
-    });
-    for (const std::vector<Entry>& f : found)
+    y0_ = y0;
+    floor_ = top_.size() >= keep_ ? top_.front().m : -1.0f;
+    found_.assign(size_t(n), {});
+}
+
+void HotStream::add_row(int k, const float* row) {
+    std::vector<Entry>& f = found_[size_t(k)];
+    const float floor = floor_;
+    for (int x = 0; x < w_; ++x) {
+        const float* px = row + size_t(x) * 3;
+        const float m = max3(px);
+        if (m > floor) f.push_back({m, x, y0_ + k, {px[0], px[1], px[2]}});
+    }
+    // Only a row's keep_ largest can be among the keep_ largest of all
+    // (`larger` is a strict total order): the rest need not wait for the
+    // merge (a whole band of candidates was 24 bytes a texel, 50 MB for
+    // a 16K band of 128 rows, while the heap was filling).
+    if (f.size() > keep_) {
+        std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(keep_ - 1), f.end(), larger);
+        f.resize(keep_);
+        f.shrink_to_fit();
+    }
+}
+
+void HotStream::end_rows() {
+    for (const std::vector<Entry>& f : found_)
         for (const Entry& e : f) {
             if (top_.size() < keep_) {
                 top_.push_back(e);
@@ -749,6 +763,7 @@ void HotStream::add_rows(const float* const* rows, int y0, int n) {
                 std::push_heap(top_.begin(), top_.end(), larger);
             }
         }
+    std::vector<std::vector<Entry>>().swap(found_);
 }
 
 HotSplit HotStream::finish(double relative_threshold, const HotRows& rows) {

@@ -187,8 +187,10 @@ public:
     ~SummaryStream();
     SummaryStream(const SummaryStream&) = delete;
     SummaryStream& operator=(const SummaryStream&) = delete;
-    // rows[k]: row y0 + k, width x 3 floats, cleaned in place. Rows in parallel.
-    void add_rows(float* const* rows, int y0, int n);
+    // rows[k]: row y0 + k, width x 3 floats, cleaned in place. Rows in
+    // parallel. With `hots`, each cleaned row also goes to hots while it is
+    // in the cache (what hots->add_rows would do after this call, to the bit).
+    void add_rows(float* const* rows, int y0, int n, class HotStream* hots = nullptr);
     SourceSummary finish();
 
 private:
@@ -209,6 +211,12 @@ public:
     HotStream(const HotStream&) = delete;
     HotStream& operator=(const HotStream&) = delete;
     void add_rows(const float* const* rows, int y0, int n);
+    // add_rows in three steps, for a pass that reads the rows for other
+    // work too (SummaryStream::add_rows): begin_rows, then add_row for each
+    // k in 0 .. n-1 (in parallel, each once), then end_rows.
+    void begin_rows(int y0, int n);
+    void add_row(int k, const float* row);
+    void end_rows();
     HotSplit finish(double relative_threshold, const HotRows& rows);
     struct Entry;
 
@@ -216,6 +224,11 @@ private:
     int w_, h_;
     size_t keep_;
     std::vector<Entry> top_;  // a heap, its smallest in front
+    // The rows between begin_rows and end_rows: their first row, the heap's
+    // floor when they began, and each row's candidates.
+    int y0_ = 0;
+    float floor_ = -1.0f;
+    std::vector<std::vector<Entry>> found_;
 };
 
 
