@@ -806,16 +806,25 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     took_cb.resize(n);
     size_t nt = 0;
     {
+        // How many of the (lobe, channel) totals are over their limits:
+        // over() is still_over > 0, kept up to date as the totals change.
+        int still_over = 0;
+        for (int g = 0; g < K; ++g)
+            for (int c = 0; c < 3; ++c) still_over += int(total[g][c] > limit[g][c]);
         const float* eq = est.data();
         const BinNode* const* cq = chromatic.data();
         uint8_t* tq = taken.data();
         uint32_t* bq = took.data();
         const ChromaBin** cbq = took_cb.data();
         for (const uint32_t q : order) {
-            if (!over()) break;
+            if (still_over == 0) break;  // over() false
             const int c = int(q >= n) + int(q >= 2 * n);  // q = c n + b
             const size_t b = q - size_t(c) * n;
-            for (int g = 0; g < K; ++g) total[g][c] -= eq[(size_t(g) * 3 + c) * n + b];
+            for (int g = 0; g < K; ++g) {
+                const bool was = total[g][c] > limit[g][c];
+                total[g][c] -= eq[(size_t(g) * 3 + c) * n + b];
+                still_over += int(total[g][c] > limit[g][c]) - int(was);
+            }
             if (!tq[b]) {
                 const ChromaBin* cb = &tree.chroma_of(*cq[b]);
                 __builtin_prefetch(cb);  // read below
@@ -829,9 +838,8 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     // with every channel taken dropped, each replaced by the last entry (in
     // decreasing order of place, so that the last is never one to drop).
     took.resize(nt);
-    thread_local std::vector<uint32_t> drop;
-    drop.clear();
     size_t extra = 0;
+    bool any_drop = false;
     float* f[kFields];
     for (int k = 0; k < kFields; ++k) f[k] = acc[k].data();
     for (const uint32_t b : took) {
@@ -842,14 +850,25 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
             float& p = f[kernel::kP0 + c][i];
             p = tk >> c & 1u ? 0.0f : p;
         }
-        if (tk == 7u) drop.push_back(i);
+        any_drop |= tk == 7u;
     }
     size_t e = count;
-    if (!drop.empty()) {
-        std::sort(drop.begin(), drop.end(), std::greater<uint32_t>());
-        for (const uint32_t i : drop) {
+    if (any_drop) {
+        // The places to drop in decreasing order without a sort: chroma_at
+        // grows with b, so b from the last down gives them in that order.
+        thread_local std::vector<uint32_t> drop;
+        drop.resize(n);
+        const uint8_t* tq = taken.data();
+        const uint32_t* at = chroma_at.data();
+        size_t nd = 0;
+        for (size_t b = n; b-- > 0;) {
+            drop[nd] = at[b];
+            nd += tq[b] == 7u;
+        }
+        for (size_t k = 0; k < nd; ++k) {
+            const uint32_t i = drop[k];
             --e;
-            for (int k = 0; k < kFields; ++k) f[k][i] = f[k][e];
+            for (int q = 0; q < kFields; ++q) f[q][i] = f[q][e];
         }
     }
     // Then each taken channel alone (its own moments), padded to whole
