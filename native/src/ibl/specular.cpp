@@ -779,25 +779,26 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     {
         const float* kq = key.data();
         uint8_t* bq = bucket_of.data();
+        // The exponents in lanes, then counted.
         for (size_t q = 0; q < 3 * n; ++q) {
             uint32_t bits;
             std::memcpy(&bits, &kq[q], sizeof(bits));
-            const uint32_t bk = kq[q] > 0.0f ? bits >> 23 : 0u;  // the exponent (keys are >= 0)
-            bq[q] = uint8_t(bk);
-            ++count_in[q & 3][bk];
+            bq[q] = uint8_t(kq[q] > 0.0f ? bits >> 23 : 0u);  // the exponent (keys are >= 0)
         }
+        for (size_t q = 0; q < 3 * n; ++q) ++count_in[q & 3][bq[q]];
     }
     uint32_t start[256];
     uint32_t sum = 0;
     for (int k = 255; k >= 1; --k)
         start[k] = sum, sum += count_in[0][k] + count_in[1][k] + count_in[2][k] + count_in[3][k];
-    order.resize(sum);
+    start[0] = sum;  // keys of 0 after the rest, then cut off
+    order.resize(3 * n);
     {
         const uint8_t* bq = bucket_of.data();
         uint32_t* oq = order.data();
-        for (size_t q = 0; q < 3 * n; ++q)
-            if (bq[q]) oq[start[bq[q]]++] = uint32_t(q);  // q = c n + b
+        for (size_t q = 0; q < 3 * n; ++q) oq[start[bq[q]]++] = uint32_t(q);  // q = c n + b
     }
+    order.resize(sum);
     thread_local std::vector<uint8_t> taken;  // per bin: its channels taken on their own (bits)
     thread_local std::vector<uint32_t> took;  // the bins taken, in the order first taken
     taken.assign(n, 0);
