@@ -61,6 +61,63 @@ unsigned colour_varies8(const Bin* bins, const double* beta_in, double inv_omega
     return out;
 }
 
+// LevelFiller::channel_moments (below) for eight bins of varying colour,
+// a lane each (b[l], beta[l] its radius, out[l]): the same operations in the
+// same order in every lane (plain lanes the compiler vectorises; sqrt and
+// division are exact in every instruction set), built without fused
+// multiply-add, so every lane's scores and moments are the scalar ones.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off", "no-math-errno")))
+#endif
+void channel_moments8(const Bin* const* b, const double* beta_in, ChromaBin* const* out, uint32_t* scores) {
+    constexpr int L = 8;
+    double ib[L], ib2[L], mx[L], my[L], mz[L], mm[L], trace[L];
+    for (int l = 0; l < L; ++l) {
+        const double beta = beta_in[l] < 1e-9 ? 1e-9 : beta_in[l];  // std::max(beta, 1e-9)
+        ib[l] = 1.0 / beta;
+        ib2[l] = 0.5 * ib[l] * ib[l];
+        const Bin& bl = *b[l];
+        const double psum = bl.power[0] + bl.power[1] + bl.power[2];
+        mx[l] = ((0.0 + bl.vector[0][0]) + bl.vector[1][0]) + bl.vector[2][0];
+        my[l] = ((0.0 + bl.vector[0][1]) + bl.vector[1][1]) + bl.vector[2][1];
+        mz[l] = ((0.0 + bl.vector[0][2]) + bl.vector[1][2]) + bl.vector[2][2];
+        mx[l] = mx[l] / psum, my[l] = my[l] / psum, mz[l] = mz[l] / psum;
+        mm[l] = mx[l] * mx[l] + my[l] * my[l] + mz[l] * mz[l];
+        trace[l] = 1.0 - mm[l];
+        scores[l] = 0;
+    }
+    for (int c = 0; c < 3; ++c) {
+        double pc[L], vx[L], vy[L], vz[L];
+        for (int l = 0; l < L; ++l) {
+            pc[l] = b[l]->power[c];
+            vx[l] = b[l]->vector[c][0], vy[l] = b[l]->vector[c][1], vz[l] = b[l]->vector[c][2];
+        }
+        double vl[L], px[L], py[L], pz[L], mcc[L], score[L], g[L], cs[L];
+        for (int l = 0; l < L; ++l) {
+            vl[l] = std::sqrt(vx[l] * vx[l] + vy[l] * vy[l] + vz[l] * vz[l]);
+            const double mcx = vx[l] / pc[l], mcy = vy[l] / pc[l], mcz = vz[l] / pc[l];
+            px[l] = vx[l] / vl[l], py[l] = vy[l] / vl[l], pz[l] = vz[l] / vl[l];
+            const double dx = mcx - mx[l], dy = mcy - my[l], dz = mcz - mz[l];
+            mcc[l] = mcx * mcx + mcy * mcy + mcz * mcz;
+            const double d2 = dx * dx + dy * dy + dz * dz;
+            const double s = std::sqrt(d2) * ib[l] + (std::fabs(mm[l] - mcc[l]) + d2) * ib2[l];
+            score[l] = (s < 1.0 ? s : 1.0) * 1023.0;  // std::min(1.0, s)
+            const double t = 1.0 - vl[l] / pc[l];
+            g[l] = 0.0 < t ? t : 0.0;  // std::max(0.0, t)
+            cs[l] = (1.0 - mcc[l]) / trace[l];
+        }
+        for (int l = 0; l < L; ++l) {
+            ChromaChannel& ch = out[l]->channel[c];
+            ch = ChromaChannel{0, 0, 1, 0, 1};
+            if (!(pc[l] > 0.0) || !(vl[l] > 0.0)) continue;  // no power: adds nothing
+            scores[l] |= uint32_t(std::ceil(score[l])) << (10 * c);
+            ch.px = float(px[l]), ch.py = float(py[l]), ch.pz = float(pz[l]);
+            ch.g = float(g[l]);
+            ch.cov_scale = trace[l] > 0.0 ? float(cs[l]) : 1.0f;
+        }
+    }
+}
+
 // Fills a BinLevel row by row from exact bins: radiance centroids, powers,
 // covariances, radii; and the per-channel moments of the bins of varying
 // colour (kept per row until finish() numbers them).
@@ -146,7 +203,25 @@ public:
         }
         std::vector<ChromaBin>& row = chroma_[y];
         row.assign(varies.size(), ChromaBin{});
-        for (size_t k = 0; k < varies.size(); ++k) {
+        size_t k = 0;
+        for (; k + 8 <= varies.size(); k += 8) {  // eight at a time (channel_moments8), the same results
+            const Bin* b8[8];
+            double beta[8];
+            ChromaBin* out[8];
+            uint32_t scores[8];
+            for (int l = 0; l < 8; ++l) {
+                b8[l] = &bins[varies[k + l]];
+                beta[l] = L_.nodes[L_.index(varies[k + l], y)].radius;
+                out[l] = &row[k + l];
+            }
+            channel_moments8(b8, beta, out, scores);
+            for (int l = 0; l < 8; ++l) {
+                BinNode& nd = L_.nodes[L_.index(varies[k + l], y)];
+                nd.chroma = (first_row_ + uint32_t(y) + 1) << 12 | uint32_t(k + l);
+                nd.chroma_scores = scores[l];
+            }
+        }
+        for (; k < varies.size(); ++k) {
             BinNode& nd = L_.nodes[L_.index(varies[k], y)];
             nd.chroma = (first_row_ + uint32_t(y) + 1) << 12 | uint32_t(k);
             nd.chroma_scores = channel_moments(bins[varies[k]], nd.radius, row[k]);
