@@ -762,13 +762,12 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     double total[kernel::kMaxLobes][3] = {};
     chroma_estimates(in.data(), n, t.c.x, t.c.y, t.c.z, std::cos(t.rho), std::sin(t.rho), K, a2, inv_z, inv_limit,
                      est.data(), key.data(), total);
-    auto over = [&] {
-        for (int g = 0; g < K; ++g)
-            for (int c = 0; c < 3; ++c)
-                if (total[g][c] > limit[g][c]) return true;
-        return false;
-    };
-    if (!over()) return;
+    // How many of the (lobe, channel) totals are over their limits, kept up
+    // to date below as the pairs' estimates come off: none, and the pass is done.
+    int still_over = 0;
+    for (int g = 0; g < K; ++g)
+        for (int c = 0; c < 3; ++c) still_over += int(total[g][c] > limit[g][c]);
+    if (still_over == 0) return;
     // The (bin, channel) pairs by bucket, largest first (in order of index within one).
     // (Four histograms in turn: one alone was a chain of stores and loads
     // of the same count, keys of one exponent being common.)
@@ -807,18 +806,13 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     took_cb.resize(n);
     size_t nt = 0;
     {
-        // How many of the (lobe, channel) totals are over their limits:
-        // over() is still_over > 0, kept up to date as the totals change.
-        int still_over = 0;
-        for (int g = 0; g < K; ++g)
-            for (int c = 0; c < 3; ++c) still_over += int(total[g][c] > limit[g][c]);
         const float* eq = est.data();
         const BinNode* const* cq = chromatic.data();
         uint8_t* tq = taken.data();
         uint32_t* bq = took.data();
         const ChromaBin** cbq = took_cb.data();
         for (const uint32_t q : order) {
-            if (still_over == 0) break;  // over() false
+            if (still_over == 0) break;  // every total within its limit
             const int c = int(q >= n) + int(q >= 2 * n);  // q = c n + b
             const size_t b = q - size_t(c) * n;
             for (int g = 0; g < K; ++g) {
