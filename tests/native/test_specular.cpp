@@ -339,72 +339,10 @@ TEST(Specular, BinsOfVaryingColourKeepTheirChannelsMeans) {
     EXPECT_GT(checked, 0u);
 }
 
-// bin_tree.h's colour test and per-channel moments, as its comments define
-// them, in scalar double arithmetic without fused multiply-add: the tree's
-// finest level (computed eight bins at a time where the row allows) holds
-// exactly these bits, on every bin of two sources with many bins of varying
-// colour at every place in a row.
-namespace {
-#if defined(__GNUC__) && !defined(__clang__)
-__attribute__((optimize("fp-contract=off")))
-#endif
-bool colour_varies_def(const Bin& b, double beta, double inv_omega, const double* mean, double tol) {
-    beta = std::max(beta, 1e-9);
-    const double ib2 = 1.0 / (beta * beta);
-    const double P = b.power[0] + b.power[1] + b.power[2];
-    const double Vx = b.vector[0][0] + b.vector[1][0] + b.vector[2][0];
-    const double Vy = b.vector[0][1] + b.vector[1][1] + b.vector[2][1];
-    const double Vz = b.vector[0][2] + b.vector[1][2] + b.vector[2][2];
-    const double vv = Vx * Vx + Vy * Vy + Vz * Vz;
-    bool varies = false;
-    for (int c = 0; c < 3; ++c) {
-        const double pc = b.power[c], a_scale = mean[c] > 0.0 ? 20.0 / mean[c] : 0.0;
-        const double a = pc > 0.0 ? std::min(1.0, a_scale * pc * inv_omega) : 0.0;
-        const double* vc = b.vector[c];
-        const double u = pc * P;
-        const double dx = vc[0] * P - Vx * pc, dy = vc[1] * P - Vy * pc, dz = vc[2] * P - Vz * pc;
-        const double X = dx * dx + dy * dy + dz * dz;
-        const double Y = std::fabs(vv * pc * pc - (vc[0] * vc[0] + vc[1] * vc[1] + vc[2] * vc[2]) * P * P);
-        const double R = tol * u * u - 0.5 * a * (X + Y) * ib2;
-        varies |= (a > 0.0) & ((R < 0.0) | (a * a * X * u * u * ib2 > R * R));
-    }
-    return varies;
-}
-
-#if defined(__GNUC__) && !defined(__clang__)
-__attribute__((optimize("fp-contract=off")))
-#endif
-uint32_t channel_moments_def(const Bin& b, double beta, ChromaBin& out) {
-    beta = std::max(beta, 1e-9);
-    const double ib = 1.0 / beta, ib2 = 0.5 * ib * ib;
-    const double psum = b.power[0] + b.power[1] + b.power[2];
-    double m[3] = {0, 0, 0};
-    for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < 3; ++k) m[k] += b.vector[c][k];
-    for (double& v : m) v = v / psum;
-    const double mm = m[0] * m[0] + m[1] * m[1] + m[2] * m[2], trace = 1.0 - mm;
-    uint32_t scores = 0;
-    for (int c = 0; c < 3; ++c) {
-        const double pc = b.power[c];
-        const double* vc = b.vector[c];
-        const double vl = std::sqrt(vc[0] * vc[0] + vc[1] * vc[1] + vc[2] * vc[2]);
-        ChromaChannel& ch = out.channel[c];
-        ch = ChromaChannel{0, 0, 1, 0, 1};
-        if (!(pc > 0.0) || !(vl > 0.0)) continue;
-        const double mc[3] = {vc[0] / pc, vc[1] / pc, vc[2] / pc}, p[3] = {vc[0] / vl, vc[1] / vl, vc[2] / vl};
-        const double dv[3] = {mc[0] - m[0], mc[1] - m[1], mc[2] - m[2]};
-        const double mcc = mc[0] * mc[0] + mc[1] * mc[1] + mc[2] * mc[2];
-        const double d2 = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
-        const double score = std::min(1.0, std::sqrt(d2) * ib + (std::fabs(mm - mcc) + d2) * ib2);
-        scores |= uint32_t(std::ceil(score * 1023.0)) << (10 * c);
-        ch.px = float(p[0]), ch.py = float(p[1]), ch.pz = float(p[2]);
-        ch.g = float(std::max(0.0, 1.0 - vl / pc));
-        ch.cov_scale = trace > 0.0 ? float((1.0 - mcc) / trace) : 1.0f;
-    }
-    return scores;
-}
-}  // namespace
-
+// bin_tree.h's colour test and per-channel moments of one bin
+// (bin_colour_varies, bin_channel_moments): the tree's finest level,
+// computed eight bins at a time, holds exactly their bits, on every bin of
+// two sources with many bins of varying colour at every place in a row.
 TEST(BinTree, ColourTestAndChannelMomentsAreTheirDefinitions) {
     const int w = 256, h = w / 2;
     size_t total_varying = 0;
@@ -427,19 +365,21 @@ TEST(BinTree, ColourTestAndChannelMomentsAreTheirDefinitions) {
             if (level.w == w) finest = &level;
         ASSERT_TRUE(finest);
         const double tol = BinTreeOptions{}.chroma_tolerance;
+        double a_scale[3];
+        colour_weight_scales(tree.channel_mean, a_scale);
         size_t varying = 0, differ = 0;
         for (int y = 0; y < h; ++y) {
             const double v0 = 1.0 - double(y + 1) / h, v1 = 1.0 - double(y) / h;
             const double s0 = std::sin((v0 - 0.5) * kPi), s2 = std::sin((v0 + (v1 - v0) - 0.5) * kPi);
-            const double inv_omega = w / (2.0 * kPi * (s2 - s0));
+            const double inv_omega = w / (2.0 * kPi * (s2 - s0));  // the row's bins' 1 / solid angle
             for (int x = 0; x < w; ++x) {
                 const BinNode& nd = finest->nodes[finest->index(x, y)];
                 const Bin& b = bins[size_t(y) * w + x];
-                const bool varies = nd.radius >= 0.0f && colour_varies_def(b, nd.radius, inv_omega, tree.channel_mean, tol);
+                const bool varies = nd.radius >= 0.0f && bin_colour_varies(b, nd.radius, inv_omega, a_scale, tol);
                 ASSERT_EQ(nd.chroma != 0, varies) << "bin " << x << ", " << y;
                 if (!varies) continue;
                 ChromaBin expected{};
-                const uint32_t scores = channel_moments_def(b, nd.radius, expected);
+                const uint32_t scores = bin_channel_moments(b, nd.radius, expected);
                 const bool same = nd.chroma_scores == scores &&
                                   std::memcmp(&tree.chroma_of(nd), &expected, sizeof(ChromaBin)) == 0;
                 if (!same && differ++ == 0) ADD_FAILURE() << "first bin whose scores or moments differ: " << x << ", " << y;

@@ -13,9 +13,72 @@
 
 namespace iblbake {
 
+void colour_weight_scales(const double* channel_mean, double* a_scale) {
+    for (int c = 0; c < 3; ++c) a_scale[c] = channel_mean[c] > 0.0 ? 20.0 / channel_mean[c] : 0.0;
+}
+
+// Whether max_c a_c s_c > tol, without a division or a root (every bin
+// is tested, few pass): with P, V the sums of the channels' powers and
+// first moments, u = P_c P, X = |V_c P - V P_c|^2 = |d|^2 u^2 and
+// Y = ||V|^2 P_c^2 - |V_c|^2 P^2| (the traces' difference times u^2),
+// a_c s_c u^2 = a_c (sqrt(X) u / beta + (X + Y) / (2 beta^2)).
+bool bin_colour_varies(const Bin& b, double beta, double inv_omega, const double* a_scale, double tol) {
+    beta = std::max(beta, 1e-9);
+    const double ib2 = 1.0 / (beta * beta);
+    const double P = b.power[0] + b.power[1] + b.power[2];
+    const double Vx = b.vector[0][0] + b.vector[1][0] + b.vector[2][0];
+    const double Vy = b.vector[0][1] + b.vector[1][1] + b.vector[2][1];
+    const double Vz = b.vector[0][2] + b.vector[1][2] + b.vector[2][2];
+    const double vv = Vx * Vx + Vy * Vy + Vz * Vz;
+    bool varies = false;
+    for (int c = 0; c < 3; ++c) {
+        const double pc = b.power[c];
+        const double a = pc > 0.0 ? std::min(1.0, a_scale[c] * pc * inv_omega) : 0.0;  // a_c
+        const double* vc = b.vector[c];
+        const double u = pc * P;
+        const double dx = vc[0] * P - Vx * pc, dy = vc[1] * P - Vy * pc, dz = vc[2] * P - Vz * pc;
+        const double X = dx * dx + dy * dy + dz * dz;
+        const double Y = std::fabs(vv * pc * pc - (vc[0] * vc[0] + vc[1] * vc[1] + vc[2] * vc[2]) * P * P);
+        const double R = tol * u * u - 0.5 * a * (X + Y) * ib2;  // a_c sqrt(X) u / beta > R ?
+        varies |= (a > 0.0) & ((R < 0.0) | (a * a * X * u * u * ib2 > R * R));
+    }
+    return varies;
+}
+
+// Out of line, so that the loops that call it stay lean.
+#if defined(__GNUC__)
+__attribute__((noinline))
+#endif
+uint32_t bin_channel_moments(const Bin& b, double beta, ChromaBin& out) {
+    beta = std::max(beta, 1e-9);
+    const double ib = 1.0 / beta, ib2 = 0.5 * ib * ib;
+    const double psum = b.power[0] + b.power[1] + b.power[2];
+    Vec3d m{0, 0, 0};
+    for (int c = 0; c < 3; ++c) m += Vec3d{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
+    m = m / psum;
+    const double mm = dot(m, m), trace = 1.0 - mm;
+    uint32_t scores = 0;
+    for (int c = 0; c < 3; ++c) {
+        const double pc = b.power[c];
+        const Vec3d vc{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
+        const double vl = length(vc);
+        ChromaChannel& ch = out.channel[c];
+        ch = ChromaChannel{0, 0, 1, 0, 1};
+        if (!(pc > 0.0) || !(vl > 0.0)) continue;  // no power: adds nothing
+        const Vec3d mc = vc / pc, p = vc / vl, dv = mc - m;
+        const double mcc = dot(mc, mc), d2 = dot(dv, dv);
+        const double score = std::min(1.0, std::sqrt(d2) * ib + (std::fabs(mm - mcc) + d2) * ib2);
+        scores |= uint32_t(std::ceil(score * 1023.0)) << (10 * c);
+        ch.px = float(p.x), ch.py = float(p.y), ch.pz = float(p.z);
+        ch.g = float(std::max(0.0, 1.0 - vl / pc));
+        ch.cov_scale = trace > 0.0 ? float((1.0 - mcc) / trace) : 1.0f;
+    }
+    return scores;
+}
+
 namespace {
 
-// LevelFiller::colour_varies (below) for eight bins, a lane each: the same
+// bin_colour_varies (above) for eight bins, a lane each: the same
 // operations in the same order in every lane, built for AVX-512, AVX2 and
 // baseline x86-64 without fused multiply-add, so each lane's answer is the
 // scalar test's. Bit l of the result: bins[l] varies. (beta[l]: bins[l]'s
@@ -61,7 +124,7 @@ unsigned colour_varies8(const Bin* bins, const double* beta_in, double inv_omega
     return out;
 }
 
-// LevelFiller::channel_moments (below) for eight bins of varying colour,
+// bin_channel_moments (above) for eight bins of varying colour,
 // a lane each (b[l], beta[l] its radius, out[l]): the same operations in the
 // same order in every lane (plain lanes the compiler vectorises; sqrt and
 // division are exact in every instruction set), built without fused
@@ -139,7 +202,7 @@ public:
             sphi_[k] = std::sin(phi);
         }
         // a_c = min(1, 20 P_c / (Omega mean_c)) = min(1, a_scale_[c] P_c / Omega).
-        for (int c = 0; c < 3; ++c) a_scale_[c] = channel_mean[c] > 0.0 ? 20.0 / channel_mean[c] : 0.0;
+        colour_weight_scales(channel_mean, a_scale_);
     }
 
     void row(int y, const Bin* bins) const {
@@ -199,7 +262,7 @@ public:
         }
         for (int x = x0; x < w_; ++x) {
             const float radius = L_.nodes[L_.index(x, y)].radius;
-            if (radius >= 0.0f && colour_varies(bins[x], radius, inv_omega)) varies.push_back(x);
+            if (radius >= 0.0f && bin_colour_varies(bins[x], radius, inv_omega, a_scale_, tol_)) varies.push_back(x);
         }
         std::vector<ChromaBin>& row = chroma_[y];
         row.assign(varies.size(), ChromaBin{});
@@ -224,75 +287,11 @@ public:
         for (; k < varies.size(); ++k) {
             BinNode& nd = L_.nodes[L_.index(varies[k], y)];
             nd.chroma = (first_row_ + uint32_t(y) + 1) << 12 | uint32_t(k);
-            nd.chroma_scores = channel_moments(bins[varies[k]], nd.radius, row[k]);
+            nd.chroma_scores = bin_channel_moments(bins[varies[k]], nd.radius, row[k]);
         }
     }
 
 private:
-    // a_c = min(1, 20 P_c / (Omega mean_c)).
-    double weight(int c, double power, double inv_omega) const {
-        return power > 0.0 ? std::min(1.0, a_scale_[c] * power * inv_omega) : 0.0;
-    }
-
-    // Whether max_c a_c s_c > tol, without a division or a root (every bin
-    // is tested, few pass): with P, V the sums of the channels' powers and
-    // first moments, u = P_c P, X = |V_c P - V P_c|^2 = |d|^2 u^2 and
-    // Y = ||V|^2 P_c^2 - |V_c|^2 P^2| (the traces' difference times u^2),
-    // a_c s_c u^2 = a_c (sqrt(X) u / beta + (X + Y) / (2 beta^2)).
-    bool colour_varies(const Bin& b, double beta, double inv_omega) const {
-        beta = std::max(beta, 1e-9);
-        const double ib2 = 1.0 / (beta * beta);
-        const double P = b.power[0] + b.power[1] + b.power[2];
-        const double Vx = b.vector[0][0] + b.vector[1][0] + b.vector[2][0];
-        const double Vy = b.vector[0][1] + b.vector[1][1] + b.vector[2][1];
-        const double Vz = b.vector[0][2] + b.vector[1][2] + b.vector[2][2];
-        const double vv = Vx * Vx + Vy * Vy + Vz * Vz;
-        bool varies = false;
-        for (int c = 0; c < 3; ++c) {
-            const double pc = b.power[c], a = weight(c, pc, inv_omega);
-            const double* vc = b.vector[c];
-            const double u = pc * P;
-            const double dx = vc[0] * P - Vx * pc, dy = vc[1] * P - Vy * pc, dz = vc[2] * P - Vz * pc;
-            const double X = dx * dx + dy * dy + dz * dz;
-            const double Y = std::fabs(vv * pc * pc - (vc[0] * vc[0] + vc[1] * vc[1] + vc[2] * vc[2]) * P * P);
-            const double R = tol_ * u * u - 0.5 * a * (X + Y) * ib2;  // a_c sqrt(X) u / beta > R ?
-            varies |= (a > 0.0) & ((R < 0.0) | (a * a * X * u * u * ib2 > R * R));
-        }
-        return varies;
-    }
-
-    // The scores and per-channel moments of a bin whose colour varies
-    // (bin_tree.h); out of line, so that the loops above stay lean.
-#if defined(__GNUC__)
-    __attribute__((noinline))
-#endif
-    uint32_t channel_moments(const Bin& b, double beta, ChromaBin& out) const {
-        beta = std::max(beta, 1e-9);
-        const double ib = 1.0 / beta, ib2 = 0.5 * ib * ib;
-        const double psum = b.power[0] + b.power[1] + b.power[2];
-        Vec3d m{0, 0, 0};
-        for (int c = 0; c < 3; ++c) m += Vec3d{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
-        m = m / psum;
-        const double mm = dot(m, m), trace = 1.0 - mm;
-        uint32_t scores = 0;
-        for (int c = 0; c < 3; ++c) {
-            const double pc = b.power[c];
-            const Vec3d vc{b.vector[c][0], b.vector[c][1], b.vector[c][2]};
-            const double vl = length(vc);
-            ChromaChannel& ch = out.channel[c];
-            ch = ChromaChannel{0, 0, 1, 0, 1};
-            if (!(pc > 0.0) || !(vl > 0.0)) continue;  // no power: adds nothing
-            const Vec3d mc = vc / pc, p = vc / vl, dv = mc - m;
-            const double mcc = dot(mc, mc), d2 = dot(dv, dv);
-            const double score = std::min(1.0, std::sqrt(d2) * ib + (std::fabs(mm - mcc) + d2) * ib2);
-            scores |= uint32_t(std::ceil(score * 1023.0)) << (10 * c);
-            ch.px = float(p.x), ch.py = float(p.y), ch.pz = float(p.z);
-            ch.g = float(std::max(0.0, 1.0 - vl / pc));
-            ch.cov_scale = trace > 0.0 ? float((1.0 - mcc) / trace) : 1.0f;
-        }
-        return scores;
-    }
-
     BinLevel& L_;
     int w_, h_;
     std::vector<double> cphi_, sphi_;

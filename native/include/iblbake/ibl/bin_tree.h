@@ -97,6 +97,17 @@ struct BinTreeOptions {
     const double* channel_mean = nullptr;
 };
 
+// The colour test of one exact bin (above) and, for a bin that passes, its
+// scores (BinNode::chroma_scores) and per-channel moments. The tree builds
+// its rows eight bins at a time with vector copies of these that give the
+// same bits (BinTree.ColourTestAndChannelMomentsAreTheirDefinitions).
+// a_scale[c] = 20 / mean_c (0 for a mean of 0), so that a bin of power P_c
+// and solid angle 1 / inv_omega has a_c = min(1, a_scale[c] P_c inv_omega);
+// beta: the bin's radius; tol: BinTreeOptions::chroma_tolerance.
+void colour_weight_scales(const double* channel_mean, double* a_scale);
+bool bin_colour_varies(const Bin& b, double beta, double inv_omega, const double* a_scale, double tol);
+uint32_t bin_channel_moments(const Bin& b, double beta, ChromaBin& out);
+
 // finest_w: bins across at level 0 (a power of two >= 2). With `keep`, the
 // exact bins (ibl/source.h) at keep_w across (a power of two in 2..finest_w/4)
 // are copied there on the way: another reduction of the same image for free.
