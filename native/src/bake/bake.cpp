@@ -12,6 +12,7 @@
 #include <exception>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <thread>
 
 #include "iblbake/bake/lut_cache.h"
@@ -22,6 +23,10 @@
 #include "iblbake/util/parallel.h"
 
 namespace iblbake {
+
+void OutputSink::take_cube(const std::string&, Cubemap&&) {
+    throw std::logic_error("OutputSink::take_cube: this sink takes no cubes (takes_cubes() is false)");
+}
 
 namespace {
 
@@ -305,9 +310,17 @@ void option_warnings(BakeResult& r, const BakeOptions& o) {
         r.warnings.push_back("every output is disabled: a written bake holds manifest.json alone");
 }
 
+std::runtime_error non_finite_output(bool source_in_place) {
+    return std::runtime_error(source_in_place
+                                  ? "the source array changed while it was being baked (a value that is not finite "
+                                    "reached the outputs); nothing was written: do not modify it during bake()"
+                                  : "a value that is not finite reached the outputs; nothing was written");
+}
+
 // The last guard: nothing non-finite leaves a bake. A numpy source is read
 // in place without the GIL; one changed while it is read can put NaN in
-// the sums, and then the bake fails instead of writing them.
+// the sums, and then the bake fails instead of writing them. (A cube a sink
+// took holds no pixels here: hand_cube() checked it.)
 void check_outputs(const BakeResult& r, bool source_in_place) {
     bool ok = (!r.irradiance || all_finite(r.irradiance->pixels)) && (!r.lut || all_finite(r.lut->pixels));
     for (const Cubemap& c : r.specular) ok = ok && all_finite(c.pixels);
@@ -317,10 +330,19 @@ void check_outputs(const BakeResult& r, bool source_in_place) {
     for (const auto& ch : r.sh9)
         for (const double v : ch) ok = ok && std::isfinite(v);
     if (ok) return;
-    throw std::runtime_error(source_in_place
-                                 ? "the source array changed while it was being baked (a value that is not finite "
-                                   "reached the outputs); nothing was written: do not modify it during bake()"
-                                 : "a value that is not finite reached the outputs; nothing was written");
+    throw non_finite_output(source_in_place);
+}
+
+// A SPEC cube, final, to the sink (OutputSink): by reference, or (a sink
+// that takes cubes) checked and handed over, its size alone left in `kept`.
+void hand_cube(OutputSink* sink, const std::string& stem, Cubemap& kept, bool source_in_place) {
+    if (!sink) return;
+    if (!sink->takes_cubes()) return sink->cube(stem, kept);
+    if (!all_finite(kept.pixels)) throw non_finite_output(source_in_place);
+    Cubemap taken;
+    taken.size = kept.size;
+    taken.pixels.swap(kept.pixels);
+    sink->take_cube(stem, std::move(taken));
 }
 
 // Why an output is off: the caller's reason, else `fallback`.
@@ -483,7 +505,7 @@ void SourceBake::finish_level(const LevelJob& job, Cubemap&& level, size_t sampl
         r.roughness.push_back(job.roughness);
         r.samples_per_texel.push_back(samples);
         r.specular_methods.push_back(method);
-        if (sink) sink->cube("specular_" + std::to_string(job.spec_level), r.specular.back());
+        hand_cube(sink, "specular_" + std::to_string(job.spec_level), r.specular.back(), !owned_source && !streamed);
     } else {
         r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method});
     }
@@ -670,6 +692,18 @@ void bin_tree(SourceBake& b) {
     b.r.specular_base_face = b.finest_bins;
     BinTreeOptions tree_options;
     tree_options.channel_mean = b.r.mean_radiance.data();  // the integrand's: the chroma scores' floor
+    // A source this bake owns that nothing reads after the tree (the r = 0
+    // levels are made, no export keeps it, the irradiance is the tree's
+    // bins') gives its rows back as the tree is done with them, before
+    // free_source() frees it: the source, the tree and its per-channel
+    // moments are never all held at once (issue 25: +5 MB at forest.exr's
+    // peak otherwise).
+    std::optional<RowRelease> release;
+    if (b.owned && !b.o.extra.keep_source && (b.irr_from_tree || !b.want_irr) &&
+        b.integrand.data == b.owned->pixels.data()) {
+        release.emplace(*b.owned);
+        tree_options.source_done = [&release](int y) { release->before(y); };
+    }
     b.tree = build_bin_tree(b.integrand, b.finest_bins, b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins,
                             tree_options);
     b.clock.done("bin_tree");
@@ -685,7 +719,7 @@ void convolve_irradiance(SourceBake& b, int bw, int bh) {
         b.irr_saturated = scale_back(irr.pixels, b.scale_exp);
         if (b.o.irradiance) {
             b.r.irradiance = std::move(irr);
-            if (b.sink) b.sink->cube("irradiance", *b.r.irradiance);
+            hand_cube(b.sink, "irradiance", *b.r.irradiance, !b.owned_source && !b.streamed);
         } else {
             b.r.extra_irradiance = std::move(irr);
         }

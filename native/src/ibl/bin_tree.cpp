@@ -324,9 +324,12 @@ namespace {
 // The tree from level 0's exact bins, bin row by bin row: row(br, out)
 // writes bins (0..w-1, br) of the w x w/2 grid (w >= 2, a power of two).
 // The means are given (options.channel_mean, or computed by the caller).
+// With level0_done, level 0's rows are made in order and level0_done(br)
+// is called (br increasing) once every row below br is made.
 template <typename RowFn>
 BinTree build_from_rows(int finest_w, const RowFn& level0_row, const double* channel_means, std::vector<Bin>* keep,
-                        int keep_w, const BinTreeOptions& options) {
+                        int keep_w, const BinTreeOptions& options,
+                        const std::function<void(int)>& level0_done = {}) {
     BinTree tree;
     std::copy(channel_means, channel_means + 3, tree.channel_mean);
     const double* mean = tree.channel_mean;
@@ -361,7 +364,7 @@ BinTree build_from_rows(int finest_w, const RowFn& level0_row, const double* cha
         for (int l = 0; l < k; ++l) fine[l] = add_level(w >> l);
         const int kw = w >> k, kh = kw / 2;
         bins.assign(size_t(kw) * kh, Bin{});
-        parallel_for(0, kh, [&](int y) {
+        auto task = [&](int y) {
             thread_local std::vector<Bin> cur, next;
             cur.resize(size_t(block) * w);
             for (int r = 0; r < block; ++r) level0_row(y * block + r, &cur[size_t(r) * w]);
@@ -379,7 +382,9 @@ BinTree build_from_rows(int finest_w, const RowFn& level0_row, const double* cha
                 rows /= 2;
             }
             std::copy(cur.begin(), cur.begin() + kw, bins.begin() + size_t(y) * kw);
-        });
+        };
+        if (level0_done) parallel_for_ordered(0, kh, task, [&](int y) { level0_done(y * block); });
+        else parallel_for(0, kh, task);
         w = kw;
     }
     while (true) {
@@ -405,8 +410,18 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
     else channel_mean(latlong, mean);
     const int w = std::max(2, finest_w);
     const BinReduction red(latlong, w, w / 2);  // reduce_to_bins(latlong, 2, 1)'s own, at w = 2
-    return build_from_rows(
-        w, [&red](int br, Bin* out) { red.row(br, out); }, mean, keep, keep_w, options);
+    std::function<void(int)> level0_done;
+    std::vector<int> first;  // the first source row that level 0's rows from br on read
+    if (options.source_done) {
+        first.assign(size_t(w / 2) + 1, latlong.height);
+        for (int br = w / 2 - 1; br >= 0; --br)
+            first[size_t(br)] = std::min(first[size_t(br) + 1], red.source_rows(br).first);
+        level0_done = [&](int br) { options.source_done(first[size_t(br)]); };
+    }
+    BinTree tree = build_from_rows(
+        w, [&red](int br, Bin* out) { red.row(br, out); }, mean, keep, keep_w, options, level0_done);
+    if (options.source_done) options.source_done(latlong.height);  // (at w = 2 the only call)
+    return tree;
 }
 
 BinRowStream::BinRowStream(int img_w, int img_h, int finest_w)

@@ -8,7 +8,39 @@
 
 #include "iblbake/util/parallel.h"
 
+#if defined(__unix__) || defined(__APPLE__)
+#include <sys/mman.h>
+#include <unistd.h>
+#define IBLBAKE_HAVE_MADVISE 1
+#endif
+
 namespace iblbake {
+
+RowRelease::RowRelease(Image& img) : img_(img) {
+#ifdef IBLBAKE_HAVE_MADVISE
+    const size_t page = size_t(sysconf(_SC_PAGESIZE));
+    const auto base = reinterpret_cast<uintptr_t>(img.pixels.data());
+    first_ = size_t((base + page - 1) / page * page - base);
+#endif
+}
+
+void RowRelease::before(int y) {
+#ifdef IBLBAKE_HAVE_MADVISE
+    if (img_.pixels.empty()) return;
+    const size_t page = size_t(sysconf(_SC_PAGESIZE));
+    y = std::clamp(y, 0, img_.height);
+    const size_t end = size_t(y) * size_t(img_.width) * 3 * sizeof(float);  // the rows above y, bytes
+    if (end <= first_) return;
+    const size_t upto = (end - first_) / page * page;  // whole pages from the first
+    if (upto <= done_) return;
+    char* base = reinterpret_cast<char*>(img_.pixels.data()) + first_;
+    // (A failure leaves the pages held: nothing is lost but the saving.)
+    if (madvise(base + done_, upto - done_, MADV_DONTNEED) == 0) bytes_ += upto - done_;
+    done_ = upto;
+#else
+    (void)y;
+#endif
+}
 
 void zero_fill(float* p, size_t n) {
     constexpr size_t kChunk = size_t(1) << 18;  // 1 MB of floats per task

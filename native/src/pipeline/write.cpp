@@ -372,6 +372,18 @@ void BakeWriter::cube(const std::string& stem, const Cubemap& cube) {
     im.run(stem, [&im, dir, stem, &cube](json& e) { write_cross(dir, stem, cube, im.wo, e, im.poll); });
 }
 
+bool BakeWriter::takes_cubes() const { return !impl_->wo.preview && impl_->plan.presets.empty(); }
+
+void BakeWriter::take_cube(const std::string& stem, Cubemap&& cube) {
+    Impl& im = *impl_;
+    const fs::path dir = im.staging.path();
+    auto held = std::make_shared<Cubemap>(std::move(cube));
+    im.run(stem, [&im, dir, stem, held](json& e) {
+        write_cross(dir, stem, *held, im.wo, e, im.poll);
+        FloatBuffer().swap(held->pixels);  // written: its memory goes now, not with the task
+    });
+}
+
 void BakeWriter::lut(const Image& lut, const std::string& pixels_sha256) {
     Impl& im = *impl_;
     const fs::path dir = im.staging.path();

@@ -163,6 +163,14 @@ class OutputSink {
 public:
     virtual ~OutputSink() = default;
     virtual void cube(const std::string& stem, const Cubemap& cube) = 0;
+    // A sink whose caller needs the files alone (no preview or export reads
+    // the result's pixels afterwards) takes the cubes instead: the bake
+    // checks a cube's values, then hands its pixels over with take_cube()
+    // and keeps only its size in the result; the sink frees them once
+    // written (issue 25: mip 0 was held to the end of the bake, through its
+    // peak, long after its file was done).
+    virtual bool takes_cubes() const { return false; }
+    virtual void take_cube(const std::string& stem, Cubemap&& cube);  // (the default throws std::logic_error)
     // pixels_sha256: BakeResult::lut_sha256 (may be empty).
     virtual void lut(const Image& lut, const std::string& pixels_sha256) = 0;
     virtual void wait() = 0;  // everything handed over is done with; rethrows its first failure

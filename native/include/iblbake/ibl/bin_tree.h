@@ -6,6 +6,7 @@
 // means too (ChromaBin).
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -95,6 +96,12 @@ struct BinTreeOptions {
     double chroma_tolerance = 0.02;
     // The image's mean radiance per channel (a_c's mean_c); null: computed.
     const double* channel_mean = nullptr;
+    // build_bin_tree: when set, the finest rows are reduced in order and
+    // source_done(y) is called (y never decreasing, the last call with the image's
+    // height) as soon as the build will read no source row above y again,
+    // so that a caller that owns the source can let those rows go
+    // (RowRelease). The tree is the same either way.
+    std::function<void(int)> source_done;
 };
 
 // The colour test of one exact bin (above) and, for a bin that passes, its

@@ -80,6 +80,26 @@ struct Image {
     const float* at(int x, int y) const { return pixels.data() + (size_t(y) * width + x) * 3; }
 };
 
+// Gives an image's rows back to the system from the top down as they stop
+// being needed (the whole memory pages of the rows above `y`, madvise's
+// MADV_DONTNEED), without freeing the image: those rows read as zeros after.
+// For a source that the last reader of its rows goes through once, top to
+// bottom (issue 25: the bin tree, its per-channel moments and the whole
+// source were otherwise all held at the bake's peak). A no-op where the
+// system has no such call.
+class RowRelease {
+public:
+    explicit RowRelease(Image& img);
+    void before(int y);                        // rows 0 .. y - 1 are never read again
+    size_t released() const { return bytes_; }  // bytes given back so far
+
+private:
+    Image& img_;
+    size_t done_ = 0;   // bytes from the first whole page already given back
+    size_t first_ = 0;  // offset of the first whole page in the pixels, bytes
+    size_t bytes_ = 0;
+};
+
 // A read-only view of pixels laid out as Image's (RGB float, rows top to
 // bottom): an Image, or memory another owner keeps alive (a numpy array), so
 // that a source is integrated where it lies instead of being copied. `rows`,

@@ -52,6 +52,10 @@ public:
     BakeWriter(const BakeWriter&) = delete;
     BakeWriter& operator=(const BakeWriter&) = delete;
     void cube(const std::string& stem, const Cubemap& cube) override;
+    // True when the plan's finish() reads no cube's pixels (no preview, no
+    // preset): the cubes are then taken and freed once written.
+    bool takes_cubes() const override;
+    void take_cube(const std::string& stem, Cubemap&& cube) override;
     void lut(const Image& lut, const std::string& pixels_sha256) override;
     void wait() override;
     // The bake is computed: writes poll `progress` from now on (finish() says so itself).
