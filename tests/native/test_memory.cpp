@@ -190,6 +190,39 @@ TEST(Bake, SinkThatTakesCubesGetsTheSamePixelsAndTheResultKeepsTheirSizes) {
     EXPECT_TRUE(r.lut->pixels == plain.lut->pixels);  // the LUT stays in the result
 }
 
+TEST(Bake, SourceGivenBackDuringTheTreeChangesNoOutput) {
+    // A bake that owns its source (compute_bake) gives its rows back as the
+    // tree is built, unless something reads them later: the irradiance's own
+    // bins (finer than the tree's can serve), an export that keeps the
+    // source. Every output must equal the bake of the same pixels read in
+    // place (compute_bake_view, which never gives anything back).
+    const Image world = coloured_world(256, 128);
+    auto same = [](const BakeResult& a, const BakeResult& b) {
+        bool ok = a.specular.size() == b.specular.size() && bool(a.irradiance) == bool(b.irradiance);
+        for (size_t i = 0; ok && i < a.specular.size(); ++i) ok = a.specular[i].pixels == b.specular[i].pixels;
+        if (ok && a.irradiance) ok = a.irradiance->pixels == b.irradiance->pixels;
+        if (ok && a.extra_irradiance) ok = b.extra_irradiance && a.extra_irradiance->pixels == b.extra_irradiance->pixels;
+        return ok && a.sh9 == b.sh9;
+    };
+    for (int variant = 0; variant < 4; ++variant) {
+        BakeOptions o;
+        o.face_size = 32;
+        o.irradiance_size = 8;
+        o.lut = false;
+        o.irradiance_bins = 4;  // the tree's bins serve the irradiance: nothing reads the source after the tree
+        if (variant == 1) o.irradiance_bins = 128;  // its own pass over the source, after the tree
+        if (variant == 2) o.extra.keep_source = true;
+        if (variant == 3) o.rotation = 30.0;  // the turned copy is the one owned
+        const BakeResult owned = compute_bake(world, o);
+        const BakeResult in_place = compute_bake_view(world, o);
+        EXPECT_TRUE(same(owned, in_place)) << "variant " << variant;
+        if (variant == 2) {
+            ASSERT_TRUE(owned.source.has_value());
+            EXPECT_TRUE(owned.source->pixels == world.pixels);
+        }
+    }
+}
+
 TEST(Bake, WriterTakesCubesOnlyWhenNothingAfterReadsThem) {
     const std::filesystem::path dir =
         std::filesystem::temp_directory_path() / ("iblbake_test_taking_" + std::to_string(::getpid()));
