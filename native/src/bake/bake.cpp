@@ -443,6 +443,12 @@ struct SourceBake {
     // writing them at once.
     void rescale(FloatBuffer& px) { saturated += scale_back(px, scale_exp); }
     void finish_level(const LevelJob& job, Cubemap&& level, size_t samples, const std::string& method);
+    // The caller's pixels read where they lie (a numpy array): a value that
+    // is not finite in the outputs may then come from their being changed.
+    bool source_in_place() const { return !owned_source && !streamed; }
+    // start_irradiance() makes the irradiance's own bins from the source
+    // (after the tree: the tree's bins are too coarse for it).
+    bool irradiance_reads_source() const { return want_irr && !irr_from_tree && !streamed; }
 
     const BakeOptions& o;
     const ProgressFn& progress;
@@ -505,7 +511,7 @@ void SourceBake::finish_level(const LevelJob& job, Cubemap&& level, size_t sampl
         r.roughness.push_back(job.roughness);
         r.samples_per_texel.push_back(samples);
         r.specular_methods.push_back(method);
-        hand_cube(sink, "specular_" + std::to_string(job.spec_level), r.specular.back(), !owned_source && !streamed);
+        hand_cube(sink, "specular_" + std::to_string(job.spec_level), r.specular.back(), source_in_place());
     } else {
         r.extra_specular.push_back({job.face_size, job.roughness, std::move(level), samples, method});
     }
@@ -699,7 +705,7 @@ void bin_tree(SourceBake& b) {
     // moments are never all held at once (issue 25: +5 MB at forest.exr's
     // peak otherwise).
     std::optional<RowRelease> release;
-    if (b.owned && !b.o.extra.keep_source && (b.irr_from_tree || !b.want_irr) &&
+    if (b.owned && !b.o.extra.keep_source && !b.irradiance_reads_source() &&
         b.integrand.data == b.owned->pixels.data()) {
         release.emplace(*b.owned);
         tree_options.source_done = [&release](int y) { release->before(y); };
@@ -719,7 +725,7 @@ void convolve_irradiance(SourceBake& b, int bw, int bh) {
         b.irr_saturated = scale_back(irr.pixels, b.scale_exp);
         if (b.o.irradiance) {
             b.r.irradiance = std::move(irr);
-            hand_cube(b.sink, "irradiance", *b.r.irradiance, !b.owned_source && !b.streamed);
+            hand_cube(b.sink, "irradiance", *b.r.irradiance, b.source_in_place());
         } else {
             b.r.extra_irradiance = std::move(irr);
         }
@@ -737,8 +743,8 @@ void start_irradiance(SourceBake& b) {
         b.report("irradiance", b.done);
         const int bw = b.o.irradiance_bins, bh = b.o.irradiance_bins / 2;
         // What reads the source is done here: the levels below may free it.
-        if (b.irr_from_tree || b.streamed) remove_hot(b.irr_bins, bw, bh, b.integrand.width, b.integrand.height, b.split);
-        else b.irr_bins = reduce_rest_to_bins(b.integrand, b.split, bw, bh);
+        if (b.irradiance_reads_source()) b.irr_bins = reduce_rest_to_bins(b.integrand, b.split, bw, bh);
+        else remove_hot(b.irr_bins, bw, bh, b.integrand.width, b.integrand.height, b.split);
         b.irr_task.run([&b, bw, bh] { convolve_irradiance(b, bw, bh); });
         b.clock.done("irradiance_start");
     }
@@ -883,7 +889,7 @@ void finish_and_check(SourceBake& b) {
         r.warnings.push_back(std::to_string(b.saturated) +
                              " output values exceeded the float range and were saturated at 3.4e38");
     warn_if_black(r);
-    check_outputs(r, !b.owned_source && !b.streamed);
+    check_outputs(r, b.source_in_place());
     if (b.sink) b.sink->wait();
     b.report("done", 1.0);
 }
