@@ -464,7 +464,8 @@ TEST(Specular, TraversalLanesDecideAsTheScalarLoop) {
     }
     const Image sun = ref::sun_source(512, 256, {0.4, 0.6, 0.3}, 1.0, 5e4f, 0.3f);
     const Image noisy = ref::random_smooth_source(300, 150, 17);
-    for (const Image* src : {&sun, &noisy})
+    const Image red_sun = ref::red_sun_source(512, 256, {-0.3, 0.94, 0.17}, 0.5, 5e4f, 1.0f);  // chroma_pass runs
+    for (const Image* src : {&sun, &noisy, &red_sun})
         for (int tile : {0, 4, 16}) {
             BakeOptions o = specular_only(64, 7);
             o.hierarchical.tile = tile;
@@ -489,6 +490,51 @@ TEST(Specular, TraversalLanesDecideAsTheScalarLoop) {
         }
     set_specular_traversal_lanes(true);
     set_specular_kernel_isa("");  // back to the best
+}
+
+// The accepted nodes' fields by the AVX-512 transpose are the nodes' own,
+// in place, and the tinted ones (chroma word not 0) are listed in order:
+// for every count from 0 to 70 (whole blocks of 16 and every tail), nodes
+// in random order with random bits in every float (NaN patterns too: the
+// transpose only moves bits), and the lanes past the count untouched.
+TEST(Specular, NodeFieldsInLanesAreTheNodesOwn) {
+    if (!set_specular_kernel_isa("avx512") || kernel::node_fields_fn() == nullptr) {
+        std::printf("[node fields] this CPU has no avx512: nothing to compare\n");
+        set_specular_kernel_isa("");
+        return;
+    }
+    std::mt19937 rng(5);
+    std::vector<BinNode> nodes(200);
+    for (BinNode& nd : nodes) {
+        uint32_t w[16];
+        for (uint32_t& x : w) x = uint32_t(rng());
+        w[kernel::kNodeChroma] = rng() % 3 == 0 ? uint32_t(rng() % 1000 + 1) : 0u;
+        std::memcpy(&nd, w, sizeof(w));
+    }
+    for (size_t n = 0; n <= 70; ++n) {
+        std::vector<const BinNode*> picked(n);
+        for (const BinNode*& p : picked) p = &nodes[rng() % nodes.size()];
+        std::vector<float> f[kernel::kFields];
+        const float sentinel = -12345.0f;
+        for (auto& v : f) v.assign(n + 16, sentinel);
+        float* out[kernel::kFields];
+        for (int k = 0; k < kernel::kFields; ++k) out[k] = f[k].data();
+        std::vector<uint32_t> at(n + 16, 99999u);
+        size_t nc = 12345;
+        kernel::node_fields_fn()(reinterpret_cast<const float* const*>(picked.data()), n, out, at.data(), &nc);
+        std::vector<uint32_t> want_at;
+        for (size_t k = 0; k < n; ++k) {
+            const float* nd = reinterpret_cast<const float*>(picked[k]);
+            for (int q = 0; q < kernel::kFields; ++q)
+                ASSERT_EQ(std::memcmp(&f[q][k], nd + q, sizeof(float)), 0) << "n " << n << " node " << k << " field " << q;
+            if (picked[k]->chroma != 0) want_at.push_back(uint32_t(k));
+        }
+        for (int q = 0; q < kernel::kFields; ++q)
+            for (size_t k = n; k < n + 16; ++k) ASSERT_EQ(f[q][k], sentinel) << "n " << n << " wrote past the count";
+        ASSERT_EQ(nc, want_at.size()) << "n " << n;
+        for (size_t k = 0; k < nc; ++k) EXPECT_EQ(at[k], want_at[k]) << "n " << n;
+    }
+    set_specular_kernel_isa("");
 }
 
 // A texel's sums do not depend on the texels that share its call of the

@@ -396,6 +396,13 @@ kernel::TraverseLevelFn kernel::traverse_level_fn() {
     }
 }
 
+kernel::NodeFieldsFn kernel::node_fields_fn() {
+#if defined(IBLBAKE_KERNEL_X86)
+    if (kernel::traverse_level_fn() == kernel::traverse_level_avx512) return kernel::node_fields_avx512;
+#endif
+    return nullptr;
+}
+
 kernel::IrrSumFn kernel::irr_sum_fn() {
     switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
 #if defined(IBLBAKE_KERNEL_X86)
@@ -561,15 +568,28 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     chromatic.resize(count + 1);
     chroma_at.resize(count + 1);
     size_t nc = 0;
-    for (size_t i = 0; i < count; ++i) {
-        const BinNode& nd = *accepted[i];
-        chromatic[nc] = &nd;
-        chroma_at[nc] = uint32_t(i);
-        nc += nd.chroma != 0;
-        acc[kernel::kPx][i] = nd.px, acc[kernel::kPy][i] = nd.py, acc[kernel::kPz][i] = nd.pz;
-        acc[kernel::kG][i] = nd.g;
-        for (int ch = 0; ch < 3; ++ch) acc[kernel::kP0 + ch][i] = nd.power[ch];
-        for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k][i] = nd.cov[k];
+    if (const kernel::NodeFieldsFn fields = kernel::node_fields_fn()) {
+        // The same in lanes, by a transpose of 16 nodes at a time.
+        static_assert(offsetof(BinNode, power) == kernel::kP0 * sizeof(float) &&
+                          offsetof(BinNode, cov) == kernel::kCxx * sizeof(float) &&
+                          offsetof(BinNode, g) == kernel::kG * sizeof(float) &&
+                          offsetof(BinNode, chroma) == kernel::kNodeChroma * sizeof(float),
+                      "node_fields reads BinNode's fields at these offsets");
+        float* out[kFields];
+        for (int k = 0; k < kFields; ++k) out[k] = acc[k].data();
+        fields(reinterpret_cast<const float* const*>(accepted.data()), count, out, chroma_at.data(), &nc);
+        for (size_t k = 0; k < nc; ++k) chromatic[k] = accepted[chroma_at[k]];
+    } else {
+        for (size_t i = 0; i < count; ++i) {
+            const BinNode& nd = *accepted[i];
+            chromatic[nc] = &nd;
+            chroma_at[nc] = uint32_t(i);
+            nc += nd.chroma != 0;
+            acc[kernel::kPx][i] = nd.px, acc[kernel::kPy][i] = nd.py, acc[kernel::kPz][i] = nd.pz;
+            acc[kernel::kG][i] = nd.g;
+            for (int ch = 0; ch < 3; ++ch) acc[kernel::kP0 + ch][i] = nd.power[ch];
+            for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k][i] = nd.cov[k];
+        }
     }
     for (auto& a : acc) std::fill(a.begin() + count, a.end(), 0.0f);
     chromatic.resize(nc);

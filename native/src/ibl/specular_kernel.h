@@ -95,5 +95,18 @@ void traverse_level_avx512(const float* nodes, const uint32_t* cur, size_t n, in
                            uint32_t* split, size_t* n_split);
 TraverseLevelFn traverse_level_fn();
 
+// The accepted nodes' fields, structure-of-arrays (gather_bins): for the n
+// nodes nodes[0..n) (BinNode's layout, 64-byte aligned), floats 0..kFields
+// of node k into fields[f][k] (BinNode's first floats are Field's order),
+// and the k whose chroma word (float kNodeChroma) is not 0 into
+// chroma_at[0..*n_chroma), in order; the same values as the scalar loop.
+// null where traverse_level_fn() is.
+constexpr int kNodeChroma = 14;
+using NodeFieldsFn = void (*)(const float* const* nodes, size_t n, float* const* fields, uint32_t* chroma_at,
+                              size_t* n_chroma);
+void node_fields_avx512(const float* const* nodes, size_t n, float* const* fields, uint32_t* chroma_at,
+                        size_t* n_chroma);
+NodeFieldsFn node_fields_fn();
+
 }  // namespace kernel
 }  // namespace iblbake

@@ -92,5 +92,54 @@ void traverse_level_avx512(const float* nodes, const uint32_t* cur, size_t n, in
     *n_split = ns;
 }
 
+void node_fields_avx512(const float* const* nodes, size_t n, float* const* fields, uint32_t* chroma_at,
+                        size_t* n_chroma) {
+    alignas(64) static const float kNoNode[kNodeFloats] = {};
+    const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    size_t nc = 0;
+    for (size_t k0 = 0; k0 < n; k0 += 16) {
+        const size_t m = n - k0 < 16 ? n - k0 : 16;
+        const __mmask16 lane = __mmask16(m == 16 ? 0xffffu : (1u << m) - 1u);
+        // r[i]: node k0 + i, its 16 floats (a node is one aligned cache line).
+        __m512 r[16], t[16];
+        for (size_t i = 0; i < 16; ++i) r[i] = _mm512_load_ps(i < m ? nodes[k0 + i] : kNoNode);
+        // 4 x 4 blocks within each 128-bit lane: r[4 j + i] then holds
+        // field i + 4 l of nodes 4 j .. 4 j + 3 in its lane l.
+        for (int j = 0; j < 16; j += 4) {
+            const __m512 a0 = _mm512_unpacklo_ps(r[j], r[j + 1]), a1 = _mm512_unpackhi_ps(r[j], r[j + 1]);
+            const __m512 a2 = _mm512_unpacklo_ps(r[j + 2], r[j + 3]), a3 = _mm512_unpackhi_ps(r[j + 2], r[j + 3]);
+            const __m512d b0 = _mm512_castps_pd(a0), b1 = _mm512_castps_pd(a1), b2 = _mm512_castps_pd(a2),
+                          b3 = _mm512_castps_pd(a3);
+            r[j] = _mm512_castpd_ps(_mm512_unpacklo_pd(b0, b2));
+            r[j + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(b0, b2));
+            r[j + 2] = _mm512_castpd_ps(_mm512_unpacklo_pd(b1, b3));
+            r[j + 3] = _mm512_castpd_ps(_mm512_unpackhi_pd(b1, b3));
+        }
+        // Then the lanes: t[i] and t[8 + i] (i < 4) hold fields i and 8 + i
+        // of nodes 0..7 and 8..15; t[4 + i], t[12 + i] fields 4 + i and 12 + i.
+        for (int i = 0; i < 4; ++i) {
+            t[i] = _mm512_shuffle_f32x4(r[i], r[4 + i], 0x88);
+            t[4 + i] = _mm512_shuffle_f32x4(r[i], r[4 + i], 0xdd);
+            t[8 + i] = _mm512_shuffle_f32x4(r[8 + i], r[12 + i], 0x88);
+            t[12 + i] = _mm512_shuffle_f32x4(r[8 + i], r[12 + i], 0xdd);
+        }
+        // Field f < 8 from t[f] and t[8 + f]; field 8 + f likewise.
+        for (int f = 0; f < 8; ++f) {
+            const __m512 lo = _mm512_shuffle_f32x4(t[f], t[8 + f], 0x88);
+            _mm512_mask_storeu_ps(fields[f] + k0, lane, lo);
+            if (8 + f < kFields) {
+                _mm512_mask_storeu_ps(fields[8 + f] + k0, lane, _mm512_shuffle_f32x4(t[f], t[8 + f], 0xdd));
+            } else if (8 + f == kNodeChroma) {
+                const __m512i chroma = _mm512_castps_si512(_mm512_shuffle_f32x4(t[f], t[8 + f], 0xdd));
+                const __mmask16 tinted = lane & _mm512_test_epi32_mask(chroma, chroma);
+                _mm512_mask_compressstoreu_epi32(chroma_at + nc, tinted,
+                                                 _mm512_add_epi32(iota, _mm512_set1_epi32(int(k0))));
+                nc += size_t(__builtin_popcount(tinted));
+            }
+        }
+    }
+    *n_chroma = nc;
+}
+
 }  // namespace kernel
 }  // namespace iblbake
