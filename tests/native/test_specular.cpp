@@ -493,7 +493,8 @@ TEST(Specular, TraversalLanesDecideAsTheScalarLoop) {
 }
 
 // The accepted nodes' fields by the AVX-512 transpose are the nodes' own,
-// in place, and the tinted ones (chroma word not 0) are listed in order:
+// in place, and the tinted ones (chroma word not 0) are listed in order
+// with their rows for chroma_pass (p, radius, chroma_score(c), power):
 // for every count from 0 to 70 (whole blocks of 16 and every tail), nodes
 // in random order with random bits in every float (NaN patterns too: the
 // transpose only moves bits), and the lanes past the count untouched.
@@ -520,8 +521,11 @@ TEST(Specular, NodeFieldsInLanesAreTheNodesOwn) {
         float* out[kernel::kFields];
         for (int k = 0; k < kernel::kFields; ++k) out[k] = f[k].data();
         std::vector<uint32_t> at(n + 16, 99999u);
+        std::vector<float> tinted[kernel::kTinted];
+        float* tq[kernel::kTinted];
+        for (int r = 0; r < kernel::kTinted; ++r) tinted[r].assign(n + 16, sentinel), tq[r] = tinted[r].data();
         size_t nc = 12345;
-        kernel::node_fields_fn()(reinterpret_cast<const float* const*>(picked.data()), n, out, at.data(), &nc);
+        kernel::node_fields_fn()(reinterpret_cast<const float* const*>(picked.data()), n, out, at.data(), tq, &nc);
         std::vector<uint32_t> want_at;
         for (size_t k = 0; k < n; ++k) {
             const float* nd = reinterpret_cast<const float*>(picked[k]);
@@ -532,7 +536,24 @@ TEST(Specular, NodeFieldsInLanesAreTheNodesOwn) {
         for (int q = 0; q < kernel::kFields; ++q)
             for (size_t k = n; k < n + 16; ++k) ASSERT_EQ(f[q][k], sentinel) << "n " << n << " wrote past the count";
         ASSERT_EQ(nc, want_at.size()) << "n " << n;
-        for (size_t k = 0; k < nc; ++k) EXPECT_EQ(at[k], want_at[k]) << "n " << n;
+        for (size_t k = 0; k < nc; ++k) {
+            ASSERT_EQ(at[k], want_at[k]) << "n " << n;
+            const BinNode& nd = *picked[at[k]];
+            const float want[kernel::kTinted] = {nd.px,
+                                                 nd.py,
+                                                 nd.pz,
+                                                 nd.radius,
+                                                 nd.chroma_score(0),
+                                                 nd.chroma_score(1),
+                                                 nd.chroma_score(2),
+                                                 nd.power[0],
+                                                 nd.power[1],
+                                                 nd.power[2]};
+            for (int r = 0; r < kernel::kTinted; ++r)
+                ASSERT_EQ(std::memcmp(&tinted[r][k], &want[r], sizeof(float)), 0) << "n " << n << " row " << r;
+        }
+        for (int r = 0; r < kernel::kTinted; ++r)
+            for (size_t k = nc; k < n + 16; ++k) ASSERT_EQ(tinted[r][k], sentinel) << "n " << n << " row " << r;
     }
     set_specular_kernel_isa("");
 }

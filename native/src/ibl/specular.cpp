@@ -486,10 +486,12 @@ Tile make_tile(int tile, int n, int T) {
 // its least distance from the tile (and, when it may straddle a texel's
 // horizon, no larger than horizon_radius), else visit its four children
 // next. The accepted bins' fields go into acc, structure-of-arrays, padded
-// to whole lanes with bins of no power. Returns the number accepted.
+// to whole lanes with bins of no power; those of varying colour into
+// chromatic, their places in acc into chroma_at and their rows for
+// chroma_pass into tinted (kernel::Tinted). Returns the number accepted.
 size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, float horizon_radius,
                    std::vector<float> (&acc)[kFields], std::vector<const BinNode*>& chromatic,
-                   std::vector<uint32_t>& chroma_at) {
+                   std::vector<uint32_t>& chroma_at, std::vector<float> (&tinted)[kernel::kTinted]) {
     thread_local std::vector<uint32_t> cur, next;
     thread_local std::vector<const BinNode*> accepted;
     cur.clear();
@@ -567,6 +569,11 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     // The bins of varying colour among them (chroma_pass), branch-free.
     chromatic.resize(count + 1);
     chroma_at.resize(count + 1);
+    float* tq[kernel::kTinted];
+    for (int r = 0; r < kernel::kTinted; ++r) {
+        tinted[r].resize(count + 1);
+        tq[r] = tinted[r].data();
+    }
     size_t nc = 0;
     if (const kernel::NodeFieldsFn fields = kernel::node_fields_fn()) {
         // The same in lanes, by a transpose of 16 nodes at a time.
@@ -577,13 +584,16 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
                       "node_fields reads BinNode's fields at these offsets");
         float* out[kFields];
         for (int k = 0; k < kFields; ++k) out[k] = acc[k].data();
-        fields(reinterpret_cast<const float* const*>(accepted.data()), count, out, chroma_at.data(), &nc);
+        fields(reinterpret_cast<const float* const*>(accepted.data()), count, out, chroma_at.data(), tq, &nc);
         for (size_t k = 0; k < nc; ++k) chromatic[k] = accepted[chroma_at[k]];
     } else {
         for (size_t i = 0; i < count; ++i) {
             const BinNode& nd = *accepted[i];
             chromatic[nc] = &nd;
             chroma_at[nc] = uint32_t(i);
+            tq[kernel::kTx][nc] = nd.px, tq[kernel::kTy][nc] = nd.py, tq[kernel::kTz][nc] = nd.pz;
+            tq[kernel::kTBeta][nc] = nd.radius;
+            for (int c = 0; c < 3; ++c) tq[kernel::kTScore0 + c][nc] = nd.chroma_score(c), tq[kernel::kTP0 + c][nc] = nd.power[c];
             nc += nd.chroma != 0;
             acc[kernel::kPx][i] = nd.px, acc[kernel::kPy][i] = nd.py, acc[kernel::kPz][i] = nd.pz;
             acc[kernel::kG][i] = nd.g;
@@ -594,6 +604,7 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     for (auto& a : acc) std::fill(a.begin() + count, a.end(), 0.0f);
     chromatic.resize(nc);
     chroma_at.resize(nc);
+    for (auto& r : tinted) r.resize(nc);
     return count;
 }
 
@@ -631,19 +642,16 @@ void sum_tile(const Tile& t, std::vector<float> (&acc)[kFields], int K, const fl
 // estimate e = score_c P_c dk, into est[(g 3 + c) n + b], and its largest
 // ratio to the limits over the lobes into key[c n + b]; the estimates
 // summed per lobe and channel in 16 fixed lanes into total. in: the bins'
-// p (x, y, z), beta, score (3), power (3), n each. Built per
+// rows (kernel::Tinted: p, beta, score (3), power (3)), n each. Built per
 // instruction set without fused multiply-add and with the lanes fixed: the
 // same bits, so the same bins chosen, on every CPU.
-constexpr int kChromaIn = 10;
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
 #endif
-void chroma_estimates(const float* in, size_t n, float cx, float cy, float cz, float cr, float sr, int K,
+void chroma_estimates(const float* const* in, size_t n, float cx, float cy, float cz, float cr, float sr, int K,
                       const float* a2, const float* inv_z, const float (*inv_limit)[3], float* est, float* key,
                       double (*total)[3]) {
-    const float *px = in, *py = in + n, *pz = in + 2 * n, *beta = in + 3 * n;
-    const float* score = in + 4 * n;  // 3 n
-    const float* power = in + 7 * n;  // 3 n
+    const float *px = in[kernel::kTx], *py = in[kernel::kTy], *pz = in[kernel::kTz], *beta = in[kernel::kTBeta];
     for (size_t q = 0; q < 3 * n; ++q) key[q] = 0.0f;
     thread_local std::vector<float> dkv, cbv, sbv;
     dkv.resize(n), cbv.resize(n), sbv.resize(n);
@@ -672,7 +680,7 @@ void chroma_estimates(const float* in, size_t n, float cx, float cy, float cz, f
         }
         for (int c = 0; c < 3; ++c) {
             const float il = inv_limit[g][c];
-            const float *sc = score + size_t(c) * n, *pc = power + size_t(c) * n;
+            const float *sc = in[kernel::kTScore0 + c], *pc = in[kernel::kTP0 + c];
             float* e = est + (size_t(g) * 3 + c) * n;
             float* k = key + size_t(c) * n;
             float lanes[16] = {};
@@ -724,8 +732,9 @@ void chroma_estimates(const float* in, size_t n, float cx, float cy, float cz, f
 // for far or weak bins (issue 25: each left a source over 1 %, or saved
 // under 7 %). count: the entries in acc, updated.
 void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const BinNode*>& chromatic,
-                 const std::vector<uint32_t>& chroma_at, std::vector<float> (&acc)[kFields], size_t& count,
-                 const double* inv_zd, int K, const float* a2, double tol, kernel::SumsFn sums) {
+                 const std::vector<uint32_t>& chroma_at, const std::vector<float> (&tinted)[kernel::kTinted],
+                 std::vector<float> (&acc)[kFields], size_t& count, const double* inv_zd, int K, const float* a2,
+                 double tol, kernel::SumsFn sums) {
     double limit[kernel::kMaxLobes][3];
     float inv_limit[kernel::kMaxLobes][3];
     {
@@ -766,21 +775,17 @@ void chroma_pass(const BinTree& tree, const Tile& t, const std::vector<const Bin
     // and the (bin, channel) pairs by their largest estimate against the
     // limits, in buckets of its binary exponent.
     const size_t n = chromatic.size();
-    thread_local std::vector<float> in, est, key;
+    thread_local std::vector<float> est, key;
     thread_local std::vector<uint32_t> order;
     thread_local std::vector<uint8_t> bucket_of;
-    in.resize(kChromaIn * n);
     est.resize(size_t(K) * 3 * n);
     key.resize(3 * n);
-    for (size_t b = 0; b < n; ++b) {
-        const BinNode* nd = chromatic[b];
-        in[b] = nd->px, in[n + b] = nd->py, in[2 * n + b] = nd->pz, in[3 * n + b] = nd->radius;
-        for (int c = 0; c < 3; ++c) in[(4 + c) * n + b] = nd->chroma_score(c), in[(7 + c) * n + b] = nd->power[c];
-    }
+    const float* in[kernel::kTinted];  // the bins' rows, from gather_bins
+    for (int r = 0; r < kernel::kTinted; ++r) in[r] = tinted[r].data();
     float inv_z[kernel::kMaxLobes];
     for (int g = 0; g < K; ++g) inv_z[g] = float(inv_zd[g]);
     double total[kernel::kMaxLobes][3] = {};
-    chroma_estimates(in.data(), n, t.c.x, t.c.y, t.c.z, std::cos(t.rho), std::sin(t.rho), K, a2, inv_z, inv_limit,
+    chroma_estimates(in, n, t.c.x, t.c.y, t.c.z, std::cos(t.rho), std::sin(t.rho), K, a2, inv_z, inv_limit,
                      est.data(), key.data(), total);
     // How many of the (lobe, channel) totals are over their limits, kept up
     // to date below as the pairs' estimates come off: none, and the pass is done.
@@ -984,9 +989,10 @@ double specular_hierarchical_group(std::vector<SpecularGroupTarget>& targets, co
         thread_local std::vector<float> acc[kFields];
         thread_local std::vector<const BinNode*> chromatic;
         thread_local std::vector<uint32_t> chroma_at;
-        size_t count = gather_bins(tree, t, scale, eps, horizon_radius, acc, chromatic, chroma_at);
+        thread_local std::vector<float> tinted[kernel::kTinted];
+        size_t count = gather_bins(tree, t, scale, eps, horizon_radius, acc, chromatic, chroma_at, tinted);
         if (!chromatic.empty() && q.chroma >= 0.0)
-            chroma_pass(tree, t, chromatic, chroma_at, acc, count, inv_z, K, a2, q.chroma, sums);
+            chroma_pass(tree, t, chromatic, chroma_at, tinted, acc, count, inv_z, K, a2, q.chroma, sums);
         used[tile] = double(count);
         sum_tile(t, acc, K, a2, sums, [&](int i, int j, const double (*num)[3]) {
             for (int g = 0; g < K; ++g) {

@@ -97,15 +97,18 @@ TraverseLevelFn traverse_level_fn();
 
 // The accepted nodes' fields, structure-of-arrays (gather_bins): for the n
 // nodes nodes[0..n) (BinNode's layout, 64-byte aligned), floats 0..kFields
-// of node k into fields[f][k] (BinNode's first floats are Field's order),
-// and the k whose chroma word (float kNodeChroma) is not 0 into
-// chroma_at[0..*n_chroma), in order; the same values as the scalar loop.
-// null where traverse_level_fn() is.
-constexpr int kNodeChroma = 14;
+// of node k into fields[f][k] (BinNode's first floats are Field's order);
+// the k whose chroma word (float kNodeChroma) is not 0, the tinted, into
+// chroma_at[0..*n_chroma) in order, and their rows for chroma_pass into
+// tinted[r][0..*n_chroma) (Tinted: p, radius, the three scores as
+// BinNode::chroma_score gives them, the power). The same values as the
+// scalar loop. null where traverse_level_fn() is.
+constexpr int kNodeChroma = 14, kNodeScores = 15;
+enum Tinted { kTx, kTy, kTz, kTBeta, kTScore0, kTScore1, kTScore2, kTP0, kTP1, kTP2, kTinted };
 using NodeFieldsFn = void (*)(const float* const* nodes, size_t n, float* const* fields, uint32_t* chroma_at,
-                              size_t* n_chroma);
+                              float* const* tinted, size_t* n_chroma);
 void node_fields_avx512(const float* const* nodes, size_t n, float* const* fields, uint32_t* chroma_at,
-                        size_t* n_chroma);
+                        float* const* tinted, size_t* n_chroma);
 NodeFieldsFn node_fields_fn();
 
 }  // namespace kernel

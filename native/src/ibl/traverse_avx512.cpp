@@ -93,7 +93,7 @@ void traverse_level_avx512(const float* nodes, const uint32_t* cur, size_t n, in
 }
 
 void node_fields_avx512(const float* const* nodes, size_t n, float* const* fields, uint32_t* chroma_at,
-                        size_t* n_chroma) {
+                        float* const* tinted, size_t* n_chroma) {
     alignas(64) static const float kNoNode[kNodeFloats] = {};
     const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     size_t nc = 0;
@@ -124,19 +124,28 @@ void node_fields_avx512(const float* const* nodes, size_t n, float* const* field
             t[12 + i] = _mm512_shuffle_f32x4(r[8 + i], r[12 + i], 0xdd);
         }
         // Field f < 8 from t[f] and t[8 + f]; field 8 + f likewise.
+        __m512 row[16];
         for (int f = 0; f < 8; ++f) {
-            const __m512 lo = _mm512_shuffle_f32x4(t[f], t[8 + f], 0x88);
-            _mm512_mask_storeu_ps(fields[f] + k0, lane, lo);
-            if (8 + f < kFields) {
-                _mm512_mask_storeu_ps(fields[8 + f] + k0, lane, _mm512_shuffle_f32x4(t[f], t[8 + f], 0xdd));
-            } else if (8 + f == kNodeChroma) {
-                const __m512i chroma = _mm512_castps_si512(_mm512_shuffle_f32x4(t[f], t[8 + f], 0xdd));
-                const __mmask16 tinted = lane & _mm512_test_epi32_mask(chroma, chroma);
-                _mm512_mask_compressstoreu_epi32(chroma_at + nc, tinted,
-                                                 _mm512_add_epi32(iota, _mm512_set1_epi32(int(k0))));
-                nc += size_t(__builtin_popcount(tinted));
-            }
+            row[f] = _mm512_shuffle_f32x4(t[f], t[8 + f], 0x88);
+            row[8 + f] = _mm512_shuffle_f32x4(t[f], t[8 + f], 0xdd);
         }
+        for (int f = 0; f < kFields; ++f) _mm512_mask_storeu_ps(fields[f] + k0, lane, row[f]);
+        const __m512i chroma = _mm512_castps_si512(row[kNodeChroma]);
+        const __mmask16 tint = lane & _mm512_test_epi32_mask(chroma, chroma);
+        if (tint == 0) continue;
+        _mm512_mask_compressstoreu_epi32(chroma_at + nc, tint, _mm512_add_epi32(iota, _mm512_set1_epi32(int(k0))));
+        // BinNode::chroma_score(c): 10 bits from bit 10 c, over 1023.
+        const __m512i bits = _mm512_castps_si512(row[kNodeScores]);
+        const __m512i ten = _mm512_set1_epi32(1023);
+        const __m512 inv = _mm512_set1_ps(1.0f / 1023.0f);
+        const __m512 score[3] = {
+            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(bits, ten)), inv),
+            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(bits, 10), ten)), inv),
+            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(bits, 20), ten)), inv)};
+        const __m512 rows[kTinted] = {row[kNodePx], row[kNodePy], row[kNodePz], row[kNodeRadius], score[0],
+                                      score[1],     score[2],     row[kP0],    row[kP1],        row[kP2]};
+        for (int r = 0; r < kTinted; ++r) _mm512_mask_compressstoreu_ps(tinted[r] + nc, tint, rows[r]);
+        nc += size_t(__builtin_popcount(tint));
     }
     *n_chroma = nc;
 }
