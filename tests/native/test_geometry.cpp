@@ -3,6 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <random>
+#include <vector>
 
 #include "iblbake/image/image.h"
 #include "iblbake/math/cube.h"
@@ -205,6 +209,33 @@ TEST(FastMath, AcosWithinItsBound) {
     EXPECT_LT(worst, 5e-7);
     EXPECT_NEAR(fast_acos(1.5f), 0.0f, 1e-7f);  // clamped
     EXPECT_NEAR(fast_acos(-1.5f), 3.14159265f, 1e-6f);
+}
+
+// acos_float gives float(std::acos(x)) to the bit: 4 million x, random in
+// [0.98, 1) (its series) and in [-1, 1], the doubles just below 1 and at
+// 0.98, the ends, and angles halfway between two floats.
+TEST(FastMath, AcosFloatIsTheLibrarysFloat) {
+    std::mt19937_64 rng(21);
+    std::uniform_real_distribution<double> near_one(0.98, 1.0), any(-1.0, 1.0);
+    std::vector<double> xs{-1.0, -0.5, 0.0, 0.5, 0.97999999999999998, 0.98, 0.98000000000000009, 1.0};
+    double x = 1.0;
+    for (int k = 0; k < 100000; ++k) xs.push_back(x = std::nextafter(x, 0.0));
+    for (int k = 0; k < 3000000; ++k) xs.push_back(near_one(rng));
+    for (int k = 0; k < 900000; ++k) xs.push_back(any(rng));
+    // Angles as near halfway between two floats as a double can put them
+    // (x = cos of the midpoint), where only the guard keeps the two equal.
+    std::uniform_real_distribution<float> angle(1e-4f, 0.2f);
+    for (int k = 0; k < 200000; ++k) {
+        const float f = angle(rng);
+        xs.push_back(std::cos(0.5 * (double(f) + double(std::nextafter(f, 1.0f)))));
+    }
+    size_t mismatches = 0;
+    for (double v : xs) {
+        const float a = acos_float(v), b = float(std::acos(v));
+        if (std::memcmp(&a, &b, sizeof(a)) != 0 && ++mismatches <= 5)
+            ADD_FAILURE() << std::setprecision(17) << "x " << v << ": " << a << " against " << b;
+    }
+    EXPECT_EQ(mismatches, 0u);
 }
 
 TEST(FastMath, Atan2VecMatchesLibm) {

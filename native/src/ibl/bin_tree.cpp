@@ -8,6 +8,7 @@
 
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"
+#include "iblbake/math/fast_math.h"
 #include "iblbake/math/latlong.h"
 #include "iblbake/util/parallel.h"
 
@@ -241,7 +242,7 @@ public:
                 const Vec3d blender{clat[r] * cphi_[col], clat[r] * sphi_[col], slat[r]};
                 min_cos = std::min(min_cos, dot(p, blender_to_engine(blender)));
             }
-            nd.radius = float(std::acos(std::clamp(min_cos, -1.0, 1.0)));
+            nd.radius = acos_float(std::clamp(min_cos, -1.0, 1.0));  // float(std::acos()), cheaper
         }
         // Issue 25's test of every bin (bin_tree.h), apart from the loop above;
         // the row's bins of varying colour counted first, then stored.
