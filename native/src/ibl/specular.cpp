@@ -346,8 +346,13 @@ static_assert(offsetof(BinNode, px) == kernel::kNodePx * sizeof(float) &&
                   offsetof(BinNode, py) == kernel::kNodePy * sizeof(float) &&
                   offsetof(BinNode, pz) == kernel::kNodePz * sizeof(float) &&
                   offsetof(BinNode, radius) == kernel::kNodeRadius * sizeof(float) &&
+                  offsetof(BinNode, g) == kernel::kG * sizeof(float) &&
+                  offsetof(BinNode, power) == kernel::kP0 * sizeof(float) &&
+                  offsetof(BinNode, cov) == kernel::kCxx * sizeof(float) &&
+                  offsetof(BinNode, chroma) == kernel::kNodeChroma * sizeof(float) &&
+                  offsetof(BinNode, chroma_scores) == kernel::kNodeScores * sizeof(float) &&
                   sizeof(BinNode) == kernel::kNodeFloats * sizeof(float),
-              "the traversal kernels read BinNode's fields at these offsets");
+              "the traversal and node-fields kernels read BinNode's fields at these offsets");
 
 kernel::SumsFn kernel_fn() {
     switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
@@ -577,11 +582,6 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
     size_t nc = 0;
     if (const kernel::NodeFieldsFn fields = kernel::node_fields_fn()) {
         // The same in lanes, by a transpose of 16 nodes at a time.
-        static_assert(offsetof(BinNode, power) == kernel::kP0 * sizeof(float) &&
-                          offsetof(BinNode, cov) == kernel::kCxx * sizeof(float) &&
-                          offsetof(BinNode, g) == kernel::kG * sizeof(float) &&
-                          offsetof(BinNode, chroma) == kernel::kNodeChroma * sizeof(float),
-                      "node_fields reads BinNode's fields at these offsets");
         float* out[kFields];
         for (int k = 0; k < kFields; ++k) out[k] = acc[k].data();
         fields(reinterpret_cast<const float* const*>(accepted.data()), count, out, chroma_at.data(), tq, &nc);
@@ -591,14 +591,19 @@ size_t gather_bins(const BinTree& tree, const Tile& t, float scale, float eps, f
             const BinNode& nd = *accepted[i];
             chromatic[nc] = &nd;
             chroma_at[nc] = uint32_t(i);
-            tq[kernel::kTx][nc] = nd.px, tq[kernel::kTy][nc] = nd.py, tq[kernel::kTz][nc] = nd.pz;
-            tq[kernel::kTBeta][nc] = nd.radius;
-            for (int c = 0; c < 3; ++c) tq[kernel::kTScore0 + c][nc] = nd.chroma_score(c), tq[kernel::kTP0 + c][nc] = nd.power[c];
             nc += nd.chroma != 0;
             acc[kernel::kPx][i] = nd.px, acc[kernel::kPy][i] = nd.py, acc[kernel::kPz][i] = nd.pz;
             acc[kernel::kG][i] = nd.g;
             for (int ch = 0; ch < 3; ++ch) acc[kernel::kP0 + ch][i] = nd.power[ch];
             for (int k = 0; k < 6; ++k) acc[kernel::kCxx + k][i] = nd.cov[k];
+        }
+        // The tinted ones' rows, from those alone (most bins of most skies
+        // have none).
+        for (size_t k = 0; k < nc; ++k) {
+            const BinNode& nd = *chromatic[k];
+            tq[kernel::kTx][k] = nd.px, tq[kernel::kTy][k] = nd.py, tq[kernel::kTz][k] = nd.pz;
+            tq[kernel::kTBeta][k] = nd.radius;
+            for (int c = 0; c < 3; ++c) tq[kernel::kTScore0 + c][k] = nd.chroma_score(c), tq[kernel::kTP0 + c][k] = nd.power[c];
         }
     }
     for (auto& a : acc) std::fill(a.begin() + count, a.end(), 0.0f);

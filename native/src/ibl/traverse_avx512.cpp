@@ -136,15 +136,15 @@ void node_fields_avx512(const float* const* nodes, size_t n, float* const* field
         _mm512_mask_compressstoreu_epi32(chroma_at + nc, tint, _mm512_add_epi32(iota, _mm512_set1_epi32(int(k0))));
         // BinNode::chroma_score(c): 10 bits from bit 10 c, over 1023.
         const __m512i bits = _mm512_castps_si512(row[kNodeScores]);
-        const __m512i ten = _mm512_set1_epi32(1023);
+        const __m512i low10 = _mm512_set1_epi32(1023);
         const __m512 inv = _mm512_set1_ps(1.0f / 1023.0f);
         const __m512 score[3] = {
-            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(bits, ten)), inv),
-            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(bits, 10), ten)), inv),
-            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(bits, 20), ten)), inv)};
+            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(bits, low10)), inv),
+            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(bits, 10), low10)), inv),
+            _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(bits, 20), low10)), inv)};
         const __m512 rows[kTinted] = {row[kNodePx], row[kNodePy], row[kNodePz], row[kNodeRadius], score[0],
                                       score[1],     score[2],     row[kP0],    row[kP1],        row[kP2]};
-        for (int r = 0; r < kTinted; ++r) _mm512_mask_compressstoreu_ps(tinted[r] + nc, tint, rows[r]);
+        for (int q = 0; q < kTinted; ++q) _mm512_mask_compressstoreu_ps(tinted[q] + nc, tint, rows[q]);
         nc += size_t(__builtin_popcount(tint));
     }
     *n_chroma = nc;

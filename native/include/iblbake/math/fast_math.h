@@ -31,7 +31,7 @@ inline float fast_acos(float x) {
 // relative, as the library's is within an ulp of it. Both then round to the
 // same float unless the angle lies within 1e-13 of it from halfway between
 // two floats; there, and for every other x, std::acos is called
-// (tests/native/test_geometry.cpp compares the two on 4 million x).
+// (tests/native/test_geometry.cpp compares the two on 4.2 million x).
 inline float acos_float(double x) {
     if (x >= 0.98 && x < 1.0) {
         const double s2 = 0.5 * (1.0 - x), s = std::sqrt(s2);
