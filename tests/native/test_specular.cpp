@@ -639,7 +639,10 @@ TEST(Specular, EveryKernelIsaAgreesWithTheBaseline) {
             }
             std::printf("[kernel isa %s vs baseline] level %zu r = %.3f: max rel difference %.2e\n", isa.c_str(), m,
                         r.roughness[m], worst);
-            EXPECT_LT(worst, 2e-5) << isa << " level " << m;
+            // The kernel's t = (s + 2 a2) - s n.m carries n.m's rounding
+            // (about 1e-7, with or without fused multiply-add) against t >=
+            // 2 a2 (1.5e-3 at r = 1/6): up to about 1e-4 of k at the peak.
+            EXPECT_LT(worst, 1e-4) << isa << " level " << m;
         }
         EXPECT_TRUE(differs) << isa << " gave the baseline's bits: was it the kernel that ran?";
     }

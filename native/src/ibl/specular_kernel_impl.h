@@ -10,7 +10,13 @@
 // k(c) = c / t^2, t = (1 - c)(1 - a2) + 2 a2, s = 1 - a2; with u = s / t,
 // v = var u, cu = c u:
 //   E[k] = t^-2 [c + v (2 + 3 cu + kurt v u (4 + 5 cu))],
-// the fourth moment taken as kurt var^2 (kurt = 1.5). Float lanes within
+// the fourth moment taken as kurt var^2 (kurt = 1.5), evaluated as
+//   t^-2 [c + v ((2 + 3 cu) + v u (6 + 7.5 cu))]
+// with c = n.m (m = (1 - g) p, the bin's mean direction) and t = (s + 2 a2)
+// - s c: 27 operations per bin, texel and lobe where the form through
+// |n - p|^2 took 34. (t's rounding: c to about 1e-7, against t >= 2 a2:
+// a few 1e-4 of k at the narrowest lobe's peak, r = 0.125, and under 1e-5
+// from r = 0.25; docs/benchmarks.md has the outputs' change.) Float lanes within
 // blocks of 512 bins, double across. Up to kMaxLobes / lobes texels take
 // each bin's fields from one load (a tile's bins outgrow the first-level
 // cache at about 600): each texel's operations, and so its sums, are those
@@ -26,6 +32,7 @@ namespace kernel {
 namespace {
 
 constexpr float kKurtosis = 1.5f;
+constexpr float kK4 = 4.0f * kKurtosis, kK5 = 5.0f * kKurtosis;  // 6, 7.5: exact in float
 constexpr size_t kBlock = 512;
 
 inline size_t block_end(size_t b, size_t count) { return count < b + kBlock ? count : b + kBlock; }
@@ -37,10 +44,10 @@ template <int K, int T>
 void sums(const float* const* f, size_t count, const float* a2, const float* dirs, double (*num)[kMaxLobes][3]) {
     for (int q = 0; q < T; ++q)
         for (int k = 0; k < K; ++k) num[q][k][0] = num[q][k][1] = num[q][k][2] = 0.0;
-    __m512 vs[K], vt2[K];
+    __m512 vs[K], vst[K];
     for (int k = 0; k < K; ++k) {
         vs[k] = _mm512_set1_ps(1.0f - a2[k]);
-        vt2[k] = _mm512_set1_ps(2.0f * a2[k]);
+        vst[k] = _mm512_set1_ps((1.0f - a2[k]) + 2.0f * a2[k]);  // t = vst - s c
     }
     __m512 vnx[T], vny[T], vnz[T], nxx[T], nyy[T], nzz[T], nxy[T], nxz[T], nyz[T];
     for (int q = 0; q < T; ++q) {
@@ -50,9 +57,8 @@ void sums(const float* const* f, size_t count, const float* a2, const float* dir
         nxy[q] = _mm512_set1_ps(2.0f * nx * ny), nxz[q] = _mm512_set1_ps(2.0f * nx * nz);
         nyz[q] = _mm512_set1_ps(2.0f * ny * nz);
     }
-    const __m512 one = _mm512_set1_ps(1.0f), half = _mm512_set1_ps(0.5f), two = _mm512_set1_ps(2.0f);
-    const __m512 kurt = _mm512_set1_ps(kKurtosis), three = _mm512_set1_ps(3.0f), four = _mm512_set1_ps(4.0f),
-                 five = _mm512_set1_ps(5.0f);
+    const __m512 one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f), three = _mm512_set1_ps(3.0f);
+    const __m512 k4 = _mm512_set1_ps(kK4), k5 = _mm512_set1_ps(kK5);
     for (size_t b = 0; b < count; b += kBlock) {
         const size_t e = block_end(b, count);
         __m512 acc[T][K][3];
@@ -60,22 +66,17 @@ void sums(const float* const* f, size_t count, const float* a2, const float* dir
             for (int k = 0; k < K; ++k) acc[q][k][0] = acc[q][k][1] = acc[q][k][2] = _mm512_setzero_ps();
         for (size_t p = b; p < e; p += kLanes) {
             // The bin's fields, loaded once for the T texels.
-            const __m512 px = _mm512_loadu_ps(f[kPx] + p), py = _mm512_loadu_ps(f[kPy] + p),
-                         pz = _mm512_loadu_ps(f[kPz] + p);
-            const __m512 g = _mm512_loadu_ps(f[kG] + p);
-            const __m512 hg = _mm512_mul_ps(_mm512_sub_ps(one, g), half);
+            const __m512 l = _mm512_sub_ps(one, _mm512_loadu_ps(f[kG] + p));  // |m|
+            const __m512 mx = _mm512_mul_ps(l, _mm512_loadu_ps(f[kPx] + p)),
+                         my = _mm512_mul_ps(l, _mm512_loadu_ps(f[kPy] + p)),
+                         mz = _mm512_mul_ps(l, _mm512_loadu_ps(f[kPz] + p));
             const __m512 cxx = _mm512_loadu_ps(f[kCxx] + p), cyy = _mm512_loadu_ps(f[kCyy] + p),
                          czz = _mm512_loadu_ps(f[kCzz] + p), cxy = _mm512_loadu_ps(f[kCxy] + p),
                          cxz = _mm512_loadu_ps(f[kCxz] + p), cyz = _mm512_loadu_ps(f[kCyz] + p);
             const __m512 p0 = _mm512_loadu_ps(f[kP0] + p), p1 = _mm512_loadu_ps(f[kP1] + p),
                          p2 = _mm512_loadu_ps(f[kP2] + p);
             for (int q = 0; q < T; ++q) {
-                const __m512 dx = _mm512_sub_ps(vnx[q], px);
-                const __m512 dy = _mm512_sub_ps(vny[q], py);
-                const __m512 dz = _mm512_sub_ps(vnz[q], pz);
-                const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
-                const __m512 omc = _mm512_fmadd_ps(hg, d2, g);
-                const __m512 c = _mm512_sub_ps(one, omc);
+                const __m512 c = _mm512_fmadd_ps(vnz[q], mz, _mm512_fmadd_ps(vny[q], my, _mm512_mul_ps(vnx[q], mx)));
                 __m512 var = _mm512_mul_ps(cxx, nxx[q]);
                 var = _mm512_fmadd_ps(cyy, nyy[q], var);
                 var = _mm512_fmadd_ps(czz, nzz[q], var);
@@ -84,13 +85,12 @@ void sums(const float* const* f, size_t count, const float* a2, const float* dir
                 var = _mm512_fmadd_ps(cyz, nyz[q], var);
                 const __mmask16 lit = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_GT_OQ);
                 for (int k = 0; k < K; ++k) {
-                    const __m512 t = _mm512_fmadd_ps(vs[k], omc, vt2[k]);
+                    const __m512 t = _mm512_fnmadd_ps(vs[k], c, vst[k]);
                     __m512 it = _mm512_maskz_rcp14_ps(0xffff, t);  // (rcp14_ps trips -Wmaybe-uninitialized on GCC 12)
                     it = _mm512_mul_ps(it, _mm512_fnmadd_ps(t, it, two));
                     const __m512 u = _mm512_mul_ps(vs[k], it), v = _mm512_mul_ps(var, u), cu = _mm512_mul_ps(c, u);
-                    const __m512 hi =
-                        _mm512_mul_ps(_mm512_mul_ps(kurt, _mm512_mul_ps(v, u)), _mm512_fmadd_ps(five, cu, four));
-                    const __m512 inner = _mm512_add_ps(_mm512_fmadd_ps(three, cu, two), hi);
+                    const __m512 inner = _mm512_fmadd_ps(_mm512_mul_ps(v, u), _mm512_fmadd_ps(k5, cu, k4),
+                                                         _mm512_fmadd_ps(three, cu, two));
                     const __m512 kv = _mm512_mul_ps(_mm512_mul_ps(it, it), _mm512_fmadd_ps(v, inner, c));
                     acc[q][k][0] = _mm512_mask3_fmadd_ps(kv, p0, acc[q][k][0], lit);
                     acc[q][k][1] = _mm512_mask3_fmadd_ps(kv, p1, acc[q][k][1], lit);
@@ -116,10 +116,10 @@ template <int K, int T>
 void sums(const float* const* f, size_t count, const float* a2, const float* dirs, double (*num)[kMaxLobes][3]) {
     for (int q = 0; q < T; ++q)
         for (int k = 0; k < K; ++k) num[q][k][0] = num[q][k][1] = num[q][k][2] = 0.0;
-    float s[K], twoa2[K];
+    float s[K], st[K];
     for (int k = 0; k < K; ++k) {
         s[k] = 1.0f - a2[k];
-        twoa2[k] = 2.0f * a2[k];
+        st[k] = (1.0f - a2[k]) + 2.0f * a2[k];  // t = st - s c
     }
     float nx[T], ny[T], nz[T], nxx[T], nyy[T], nzz[T], nxy[T], nxz[T], nyz[T];
     for (int q = 0; q < T; ++q) {
@@ -135,19 +135,17 @@ void sums(const float* const* f, size_t count, const float* a2, const float* dir
         for (size_t p = b; p < e; p += kLanes) {
             for (size_t l = 0; l < kLanes; ++l) {
                 const size_t r = p + l;
+                const float ml = 1.0f - pg[r];  // |m|
+                const float mx = ml * px[r], my = ml * py[r], mz = ml * pz[r];
                 for (int q = 0; q < T; ++q) {
-                    const float dx = nx[q] - px[r], dy = ny[q] - py[r], dz = nz[q] - pz[r];
-                    const float g = pg[r];
-                    const float omc = g + (1.0f - g) * 0.5f * (dx * dx + dy * dy + dz * dz);  // 1 - n.m
-                    const float c = 1.0f - omc;
+                    const float c = nx[q] * mx + ny[q] * my + nz[q] * mz;  // n.m
                     const float var = cxx[r] * nxx[q] + cyy[r] * nyy[q] + czz[r] * nzz[q] + cxy[r] * nxy[q] +
                                       cxz[r] * nxz[q] + cyz[r] * nyz[q];
                     const float lit = c > 0.0f ? 1.0f : 0.0f;
                     for (int k = 0; k < K; ++k) {
-                        const float it = 1.0f / (s[k] * omc + twoa2[k]);
+                        const float it = 1.0f / (st[k] - s[k] * c);
                         const float u = s[k] * it, v = var * u, cu = c * u;
-                        const float kv =
-                            lit * (it * it * (c + v * (2.0f + 3.0f * cu + kKurtosis * v * u * (4.0f + 5.0f * cu))));
+                        const float kv = lit * (it * it * (c + v * ((2.0f + 3.0f * cu) + v * u * (kK4 + kK5 * cu))));
                         acc[q][k][0][l] += kv * q0[r];
                         acc[q][k][1][l] += kv * q1[r];
                         acc[q][k][2][l] += kv * q2[r];
