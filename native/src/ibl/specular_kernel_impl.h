@@ -49,14 +49,20 @@ void sums(const float* const* f, size_t count, const float* a2, const float* dir
         vs[k] = _mm512_set1_ps(1.0f - a2[k]);
         vst[k] = _mm512_set1_ps((1.0f - a2[k]) + 2.0f * a2[k]);  // t = vst - s c
     }
+    // One lobe: the variance taken as s var (its constants times s), so
+    // that v = (s var) it, c u = s (c it) and v u = s (v it), s going into
+    // the polynomial's constants: u is not formed (26 operations).
+    const float vscale = K == 1 ? 1.0f - a2[0] : 1.0f;
     __m512 vnx[T], vny[T], vnz[T], nxx[T], nyy[T], nzz[T], nxy[T], nxz[T], nyz[T];
     for (int q = 0; q < T; ++q) {
         const float nx = dirs[3 * q], ny = dirs[3 * q + 1], nz = dirs[3 * q + 2];
         vnx[q] = _mm512_set1_ps(nx), vny[q] = _mm512_set1_ps(ny), vnz[q] = _mm512_set1_ps(nz);
-        nxx[q] = _mm512_set1_ps(nx * nx), nyy[q] = _mm512_set1_ps(ny * ny), nzz[q] = _mm512_set1_ps(nz * nz);
-        nxy[q] = _mm512_set1_ps(2.0f * nx * ny), nxz[q] = _mm512_set1_ps(2.0f * nx * nz);
-        nyz[q] = _mm512_set1_ps(2.0f * ny * nz);
+        nxx[q] = _mm512_set1_ps(vscale * (nx * nx)), nyy[q] = _mm512_set1_ps(vscale * (ny * ny));
+        nzz[q] = _mm512_set1_ps(vscale * (nz * nz)), nxy[q] = _mm512_set1_ps(vscale * (2.0f * nx * ny));
+        nxz[q] = _mm512_set1_ps(vscale * (2.0f * nx * nz)), nyz[q] = _mm512_set1_ps(vscale * (2.0f * ny * nz));
     }
+    const float s1 = 1.0f - a2[0];
+    const __m512 s3 = _mm512_set1_ps(3.0f * s1), s4 = _mm512_set1_ps(kK4 * s1), s5 = _mm512_set1_ps(kK5 * s1 * s1);
     const __m512 one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f), three = _mm512_set1_ps(3.0f);
     const __m512 k4 = _mm512_set1_ps(kK4), k5 = _mm512_set1_ps(kK5);
     for (size_t b = 0; b < count; b += kBlock) {
@@ -88,9 +94,18 @@ void sums(const float* const* f, size_t count, const float* a2, const float* dir
                     const __m512 t = _mm512_fnmadd_ps(vs[k], c, vst[k]);
                     __m512 it = _mm512_maskz_rcp14_ps(0xffff, t);  // (rcp14_ps trips -Wmaybe-uninitialized on GCC 12)
                     it = _mm512_mul_ps(it, _mm512_fnmadd_ps(t, it, two));
-                    const __m512 u = _mm512_mul_ps(vs[k], it), v = _mm512_mul_ps(var, u), cu = _mm512_mul_ps(c, u);
-                    const __m512 inner = _mm512_fmadd_ps(_mm512_mul_ps(v, u), _mm512_fmadd_ps(k5, cu, k4),
-                                                         _mm512_fmadd_ps(three, cu, two));
+                    __m512 v, inner;
+                    if constexpr (K == 1) {
+                        const __m512 ci = _mm512_mul_ps(c, it);
+                        v = _mm512_mul_ps(var, it);
+                        inner = _mm512_fmadd_ps(_mm512_mul_ps(v, it), _mm512_fmadd_ps(s5, ci, s4),
+                                                _mm512_fmadd_ps(s3, ci, two));
+                    } else {
+                        const __m512 u = _mm512_mul_ps(vs[k], it), cu = _mm512_mul_ps(c, u);
+                        v = _mm512_mul_ps(var, u);
+                        inner = _mm512_fmadd_ps(_mm512_mul_ps(v, u), _mm512_fmadd_ps(k5, cu, k4),
+                                                _mm512_fmadd_ps(three, cu, two));
+                    }
                     const __m512 kv = _mm512_mul_ps(_mm512_mul_ps(it, it), _mm512_fmadd_ps(v, inner, c));
                     acc[q][k][0] = _mm512_mask3_fmadd_ps(kv, p0, acc[q][k][0], lit);
                     acc[q][k][1] = _mm512_mask3_fmadd_ps(kv, p1, acc[q][k][1], lit);
