@@ -40,4 +40,10 @@ BinGroups group_bins(const std::vector<Bin>& bins, int bw, int bh, double bright
 void irradiance_convolve(Cubemap& dst, const BinGroups& bins, const std::vector<RadiancePoint>& hot,
                          int exact_face_limit = 64);
 
+// H(x) = phi(x) - x Phi(-x) for x in [0, 5] (phi, Phi: the standard normal
+// density and distribution), within 1e-16 or so: E[max(0, X)] - max(0, mu) =
+// sigma H(|mu| / sigma) for X Gaussian (mu, sigma^2), the hot points'
+// correction across a texel's horizon, without erfc or exp.
+double horizon_excess(double x);
+
 }  // namespace iblbake
