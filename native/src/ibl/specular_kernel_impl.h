@@ -13,11 +13,12 @@
 // the fourth moment taken as kurt var^2 (kurt = 1.5), evaluated as
 //   t^-2 [c + v ((2 + 3 cu) + v u (6 + 7.5 cu))]
 // with c = n.m (m = (1 - g) p, the bin's mean direction) and t = (s + 2 a2)
-// - s c: 27 operations per bin, texel and lobe where the form through
-// |n - p|^2 took 34. (t's rounding: c to about 1e-7, against t >= 2 a2:
-// a few 1e-4 of k at the narrowest lobe's peak, r = 0.125, and under 1e-5
-// from r = 0.25; docs/benchmarks.md has the outputs' change.) Float lanes within
-// blocks of 512 bins, double across. Up to kMaxLobes / lobes texels take
+// - s c: 27 operations per bin, texel and lobe (26 for one lobe with
+// AVX-512) where the form through |n - p|^2 took 34. (t's rounding: c to
+// about 1e-7, against t >= 2 a2: up to 3e-4 of k at the narrowest lobe's
+// peak, r = 0.125, and under 3e-5 from r = 0.25; docs/benchmarks.md has the
+// outputs' change.) Float lanes within blocks of 512 bins, double across.
+// Up to kMaxLobes / lobes texels take
 // each bin's fields from one load (a tile's bins outgrow the first-level
 // cache at about 600): each texel's operations, and so its sums, are those
 // it would have alone.

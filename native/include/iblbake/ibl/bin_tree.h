@@ -18,8 +18,9 @@ namespace iblbake {
 // One bin as the hierarchical sum reads it, in one cache line.
 struct alignas(64) BinNode {
     // Where the bin's radiance sits: m = integral of L w dOmega / integral of
-    // L dOmega (channel sums), kept as its unit direction p and g = 1 - |m|,
-    // so that 1 - n.m = g + (1 - g) |n - p|^2 / 2 without cancellation.
+    // L dOmega (channel sums), kept as its unit direction p and g = 1 - |m|
+    // (the kernel takes n.m as n.((1 - g) p): specular_kernel_impl.h, with
+    // what its rounding costs at the narrowest lobe).
     float px, py, pz, g;
     // Power per channel: integral of L_c dOmega.
     float power[3];
