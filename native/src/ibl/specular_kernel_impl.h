@@ -53,7 +53,7 @@ void sums(const float* const* f, size_t count, const float* a2, const float* dir
     // One lobe: the variance taken as s var (its constants times s), so
     // that v = (s var) it, c u = s (c it) and v u = s (v it), s going into
     // the polynomial's constants: u is not formed (26 operations).
-    const float vscale = K == 1 ? 1.0f - a2[0] : 1.0f;
+    const float s1 = 1.0f - a2[0], vscale = K == 1 ? s1 : 1.0f;
     __m512 vnx[T], vny[T], vnz[T], nxx[T], nyy[T], nzz[T], nxy[T], nxz[T], nyz[T];
     for (int q = 0; q < T; ++q) {
         const float nx = dirs[3 * q], ny = dirs[3 * q + 1], nz = dirs[3 * q + 2];
@@ -62,7 +62,6 @@ void sums(const float* const* f, size_t count, const float* a2, const float* dir
         nzz[q] = _mm512_set1_ps(vscale * (nz * nz)), nxy[q] = _mm512_set1_ps(vscale * (2.0f * nx * ny));
         nxz[q] = _mm512_set1_ps(vscale * (2.0f * nx * nz)), nyz[q] = _mm512_set1_ps(vscale * (2.0f * ny * nz));
     }
-    const float s1 = 1.0f - a2[0];
     const __m512 s3 = _mm512_set1_ps(3.0f * s1), s4 = _mm512_set1_ps(kK4 * s1), s5 = _mm512_set1_ps(kK5 * s1 * s1);
     const __m512 one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f), three = _mm512_set1_ps(3.0f);
     const __m512 k4 = _mm512_set1_ps(kK4), k5 = _mm512_set1_ps(kK5);
