@@ -23,6 +23,11 @@
 //   redsun W H OUT.exr
 //       issue 25's chromatic source: a red 0.5 deg disc of (5e4, 5e3, 0),
 //       10 deg above the horizon, in a blue sky of (0.1, 0.3, 1) at the zenith
+//   decode SRC
+//       the file decoded alone, as the streamed bake decodes it (io::open_rows,
+//       bands of preferred_band() rows into one buffer, libdeflate for zlib
+//       as in the CLI) and nothing else: issue 28's "time to decode the file
+//       alone"; time it from outside (bench/alternate.py)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -30,6 +35,7 @@
 #include <exception>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -38,6 +44,7 @@
 #include "baselines.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/io/image_io.h"
+#include "iblbake/io/row_reader.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/util/parallel.h"
 
@@ -152,6 +159,21 @@ int dense_lut(int size, int stride, int n_theta, int n_phi, const std::string& o
     return 0;
 }
 
+int decode(const std::string& path) {
+    const std::unique_ptr<io::RowReader> reader = io::open_rows(path);
+    if (!reader) throw std::runtime_error(path + " is read whole, not in bands");
+    const int band = reader->preferred_band(), w = reader->width(), h = reader->height();
+    std::vector<float> rows(size_t(w) * size_t(std::min(band, h)) * 3);
+    double check = 0.0;
+    for (int y = 0; y < h; y += band) {
+        const int n = std::min(band, h - y);
+        reader->read(y, n, rows.data());
+        check += rows[size_t(n - 1) * size_t(w) * 3];
+    }
+    std::printf("%d x %d in bands of %d rows (checksum %g)\n", w, h, band, check);
+    return 0;
+}
+
 int usage() {
     std::fprintf(stderr,
                  "usage: iblbake_bench reference SRC OUT.csv IRR_FACE SPEC_FACE PER_LEVEL SMALL_FACE\n"
@@ -161,7 +183,8 @@ int usage() {
                  "       iblbake_bench seed-at REF.csv SRC irradiance|specular PARAM OUT.f32\n"
                  "       iblbake_bench dense-lut SIZE STRIDE N_THETA N_PHI OUT.csv\n"
                  "       iblbake_bench sun W H OUT.exr\n"
-                 "       iblbake_bench redsun W H OUT.exr\n");
+                 "       iblbake_bench redsun W H OUT.exr\n"
+                 "       iblbake_bench decode SRC\n");
     return 2;
 }
 
@@ -184,6 +207,7 @@ int main(int argc, char** argv) {
             io::write_exr(a[3], img, io::ExrPixel::Float);
             return 0;
         }
+        if (a.size() == 2 && a[0] == "decode") return decode(a[1]);
         if (a.size() == 5 && a[0] == "seed-lut") {
             Image lut;
             const double s = median_seconds(i(3), [&] { lut = bench::seed_brdf_lut(i(1), i(2)); });

@@ -26,6 +26,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -34,6 +36,7 @@
 #include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/ibl/specular.h"
+#include "iblbake/math/half.h"
 #include "reference.h"
 #include "test_files.h"
 
@@ -125,11 +128,36 @@ std::vector<float> read_in_bands(io::RowReader& r, int band, bool backwards) {
     return all;
 }
 
-void expect_same_as_read_image(const std::string& path, std::vector<int> bands = {1, 7, 64, 1000}) {
+// Every row as halves (read_halves), in bands of `band` rows, made floats.
+std::vector<float> halves_in_bands(io::RowReader& r, int band) {
+    const size_t row = size_t(r.width()) * 3;
+    std::vector<uint16_t> h(row * r.height(), 0xffff);
+    for (int y = 0; y < r.height(); y += band) r.read_halves(y, std::min(band, r.height() - y), h.data() + y * row);
+    std::vector<float> all(h.size());
+    halves_to_floats(h.data(), all.data(), h.size());
+    return all;
+}
+
+// `halves`: whether the reader must offer its rows as halves (a file of
+// three HALF channels whose data window is the image), which then equal
+// the floats too.
+void expect_same_as_read_image(const std::string& path, std::vector<int> bands = {1, 7, 64, 1000},
+                               std::optional<bool> halves = std::nullopt) {
     const io::LoadedImage whole = io::read_image(path);
     const std::unique_ptr<io::RowReader> reader = io::open_rows(path);  // an ExrRowReader for an EXR
     ASSERT_TRUE(reader) << path << " is read whole, not by rows";
     io::RowReader& r = *reader;
+    if (halves) {
+        ASSERT_EQ(r.has_halves(), *halves) << path;
+    }
+    if (r.has_halves())
+        for (int band : {1, 7, r.preferred_band()}) {
+            const std::vector<float> rows = halves_in_bands(r, band);
+            EXPECT_EQ(0, std::memcmp(rows.data(), whole.image.pixels.data(), rows.size() * sizeof(float)))
+                << path << ": halves in bands of " << band;
+        }
+    else
+        EXPECT_THROW(r.read_halves(0, 1, nullptr), std::logic_error) << path;
     ASSERT_EQ(r.width(), whole.image.width);
     ASSERT_EQ(r.height(), whole.image.height);
     EXPECT_EQ(r.warnings(), whole.warnings);
@@ -146,49 +174,54 @@ void expect_same_as_read_image(const std::string& path, std::vector<int> bands =
 
 }  // namespace
 
-TEST(ExrRowReader, ScanlineZipHalf) { expect_same_as_read_image(write_file("scanline.exr", Layout{})); }
+TEST(ExrRowReader, ScanlineZipHalf) {
+    expect_same_as_read_image(write_file("scanline.exr", Layout{}), {1, 7, 64, 1000}, true);
+    Layout moved;
+    moved.dx = 3, moved.dy = -5;  // the data window is the display window, away from the origin
+    expect_same_as_read_image(write_file("moved.exr", moved), {1, 7, 64, 1000}, true);
+}
 
 TEST(ExrRowReader, ScanlineFloatPiz) {
     Layout l;
     l.half = false;
     l.compression = Imf::PIZ_COMPRESSION;
     l.h = 70;  // more than a PIZ block of 32 rows
-    expect_same_as_read_image(write_file("piz.exr", l));
+    expect_same_as_read_image(write_file("piz.exr", l), {1, 7, 64, 1000}, false);
 }
 
 TEST(ExrRowReader, Tiled) {
     Layout l;
     l.tiled = true;
     l.w = 50, l.h = 29;  // partial tiles at the right and bottom
-    expect_same_as_read_image(write_file("tiled.exr", l));
+    expect_same_as_read_image(write_file("tiled.exr", l), {1, 7, 64, 1000}, true);
 }
 
 TEST(ExrRowReader, DataWindowInsideTheDisplayWindow) {
     Layout l;
     l.dx = 3, l.dy = 5, l.full_w = 48, l.full_h = 24;  // padded with black, warned
-    expect_same_as_read_image(write_file("window.exr", l));
+    expect_same_as_read_image(write_file("window.exr", l), {1, 7, 64, 1000}, false);  // black rows and columns: floats
 }
 
 TEST(ExrRowReader, DataWindowOutsideTheDisplayWindow) {
     Layout l;
     l.dx = -4, l.dy = 2, l.full_w = 40, l.full_h = 20;  // the data window alone, warned
     l.tiled = true;
-    expect_same_as_read_image(write_file("outside.exr", l));
+    expect_same_as_read_image(write_file("outside.exr", l), {1, 7, 64, 1000}, true);  // the data window is the image
 }
 
 TEST(ExrRowReader, GreyFromYAndFromTwoChannels) {
     Layout y;
     y.channels = {"Y"};
-    expect_same_as_read_image(write_file("grey.exr", y));
+    expect_same_as_read_image(write_file("grey.exr", y), {1, 7, 64, 1000}, false);
     Layout two;
     two.channels = {"R", "G"};
-    expect_same_as_read_image(write_file("two.exr", two));
+    expect_same_as_read_image(write_file("two.exr", two), {1, 7, 64, 1000}, false);
 }
 
 TEST(ExrRowReader, LayerOfAMultilayerFile) {
     Layout l;
     l.channels = {"ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Combined.B", "ViewLayer.Depth.Z"};
-    expect_same_as_read_image(write_file("layers.exr", l));
+    expect_same_as_read_image(write_file("layers.exr", l), {1, 7, 64, 1000}, true);
 }
 
 TEST(ExrRowReader, LuminanceChroma) {
@@ -202,7 +235,7 @@ TEST(ExrRowReader, LuminanceChroma) {
         out.setFrameBuffer(px.data(), 1, w);
         out.writePixels(h);
     }
-    expect_same_as_read_image(path);
+    expect_same_as_read_image(path, {1, 7, 64, 1000}, false);  // RgbaInputFile's conversion
 }
 
 TEST(ExrRowReader, MultiPartTakesThePartWithColour) {

@@ -2,7 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <iterator>
+#include <algorithm>
 #include <limits>
 #include <tuple>
 #include <utility>
@@ -132,6 +135,54 @@ TEST(Source, BufferChecksFindOneBadValueAnywhere) {
     EXPECT_TRUE(any_beyond(std::vector<float>{0.0f}, -1.0f));
     EXPECT_FALSE(any_beyond(std::vector<float>{}, -1.0f));
     EXPECT_TRUE(all_finite(std::vector<float>{}));
+}
+
+// The scan of rows with bad values goes block by block (16 pixels), the
+// vectorised max alone where a block is clean: the counts, the bad rows and
+// the largest good value are a value-by-value classification's, wherever
+// in a row (and its blocks) the bad values and the largest value lie.
+TEST(Source, ScanMatchesAValueByValueCount) {
+    const int w = 1000, h = 6;  // 62 whole blocks and a partial one per row
+    Image img = ref::random_smooth_source(w, h, 11);
+    const float bad[] = {std::numeric_limits<float>::quiet_NaN(), -std::numeric_limits<float>::quiet_NaN(),
+                         std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(), -1e-30f,
+                         -3.0f, -0.0f};
+    uint32_t seed = 7;
+    auto next = [&] { return seed = seed * 1664525u + 1013904223u; };
+    for (int k = 0; k < 40; ++k) {
+        const int y = 1 + int(next() % (h - 1));  // row 0 stays clean
+        img.at(int(next() % w), y)[next() % 3] = bad[next() % std::size(bad)];
+    }
+    img.at(w - 1, 3)[2] = 7e5f;  // the largest good value, in the last partial block of a bad row
+    img.at(w / 2, 4)[0] = -0.0f;
+    BadInputCounts want;
+    float want_max = 0.0f;
+    std::vector<int> want_rows;
+    for (int y = 0; y < h; ++y) {
+        bool row_bad = false;
+        for (int x = 0; x < w; ++x) {
+            bool px_bad = false;
+            for (int c = 0; c < 3; ++c) {
+                const float v = img.at(x, y)[c];
+                if (std::isnan(v)) ++want.nan, px_bad = true;
+                else if (std::isinf(v)) ++want.inf, px_bad = true;
+                else if (v < 0.0f) ++want.negative, px_bad = true;
+                else want_max = std::max(want_max, v);
+            }
+            want.pixels += px_bad;
+            row_bad |= px_bad;
+        }
+        if (row_bad) want_rows.push_back(y);
+    }
+    const SourceScan s = scan_source(img);
+    EXPECT_EQ(s.bad.nan, want.nan);
+    EXPECT_EQ(s.bad.inf, want.inf);
+    EXPECT_EQ(s.bad.negative, want.negative);
+    EXPECT_EQ(s.bad.pixels, want.pixels);
+    EXPECT_GT(want.pixels, 30u);
+    EXPECT_EQ(s.max_value, 7e5f);
+    EXPECT_EQ(s.max_value, want_max);
+    EXPECT_EQ(s.bad_rows, want_rows);
 }
 
 TEST(Source, SanitizeCountsAndZeroes) {

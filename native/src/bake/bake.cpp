@@ -899,14 +899,25 @@ void finish_and_check(SourceBake& b) {
 // buffer is reused, its band's last `keep` rows go to a tail: a bin row
 // reads up to max_reach() = keep + 1 rows, across a band's start. Bands
 // are at least keep + 1 rows high.
+// A source of halves (has_halves()) is read into two buffers of halves,
+// and its floats are written by the pass that reduces them (halves()),
+// into a ring of band + keep rows (row y at slot y mod (band + keep)): the
+// rows a band's bins still need from the band before stay where they are.
 class BandRing {
 public:
     BandRing(BandSource& src, int band, int keep, bool overlap)
         : src_(src), w_(src.width()), h_(src.height()), band_(band), keep_(keep), overlap_(overlap),
-          row_(size_t(w_) * 3), table_(size_t(h_), nullptr) {
+          halves_(src.has_halves()), row_(size_t(w_) * 3), table_(size_t(h_), nullptr) {
         if (band_ <= keep_) throw std::logic_error("BandRing: bands must be higher than the rows kept");
-        for (auto& b : buf_) b.resize(size_t(std::min(band_, h_)) * row_);
-        tail_.resize(size_t(keep_) * row_);
+        const size_t band_values = size_t(std::min(band_, h_)) * row_;
+        if (halves_) {
+            slots_ = std::min(band_ + keep_, h_);
+            buf_[0].resize(size_t(slots_) * row_);
+            for (auto& r : raw_) r.resize(band_values);
+        } else {
+            for (auto& b : buf_) b.resize(band_values);
+            tail_.resize(size_t(keep_) * row_);
+        }
     }
     BandRing(const BandRing&) = delete;
     BandRing& operator=(const BandRing&) = delete;
@@ -917,18 +928,20 @@ public:
         if (next_y_ >= h_) return false;
         const int cur = k_ & 1;
         if (k_ == 0) read_into(cur, 0);
-        join();  // band k was being read into buf_[cur]
+        join();  // band k was being read into buffer cur
         if (error_) std::rethrow_exception(error_);
         y0 = next_y_;
         n = std::min(band_, h_ - y0);
         std::fill(table_.begin() + have0_, table_.begin() + (have1_ + 1), nullptr);
         have0_ = k_ == 0 ? 0 : y0 - keep_;
-        for (int y = have0_; y < y0; ++y) table_[size_t(y)] = tail_.data() + size_t(y - have0_) * row_;
+        for (int y = have0_; y < y0; ++y)
+            table_[size_t(y)] = halves_ ? slot(y) : tail_.data() + size_t(y - have0_) * row_;
         rows.resize(size_t(n));
         for (int k = 0; k < n; ++k) {
-            rows[size_t(k)] = buf_[cur].data() + size_t(k) * row_;
+            rows[size_t(k)] = halves_ ? slot(y0 + k) : buf_[cur].data() + size_t(k) * row_;
             table_[size_t(y0 + k)] = rows[size_t(k)];
         }
+        cur_halves_ = halves_ ? raw_[cur].data() : nullptr;
         have1_ = y0 + n - 1;
         next_y_ = y0 + n;
         ++k_;
@@ -944,12 +957,17 @@ public:
         }
         return true;
     }
+    // The band's rows as halves, rows x width x 3, when the source gives
+    // halves: the rows next() returned are then to be filled from them (null otherwise).
+    const uint16_t* halves() const { return cur_halves_; }
     // After a band is reduced: its last rows to the tail, and (without the
     // reader thread) the next band read.
     void done() {
         if (next_y_ >= h_) return;
-        const float* last = buf_[(k_ - 1) & 1].data() + size_t(band_ - keep_) * row_;  // a band before the last is whole
-        std::memcpy(tail_.data(), last, size_t(keep_) * row_ * sizeof(float));
+        if (!halves_) {
+            const float* last = buf_[(k_ - 1) & 1].data() + size_t(band_ - keep_) * row_;  // a band before the last is whole
+            std::memcpy(tail_.data(), last, size_t(keep_) * row_ * sizeof(float));
+        }
         if (!overlap_) read_into(k_ & 1, next_y_);
     }
     // Rows have0() .. have1() through the row table (null elsewhere).
@@ -962,16 +980,24 @@ public:
     int have1() const { return have1_; }
 
 private:
-    void read_into(int which, int y0) { src_.read(y0, std::min(band_, h_ - y0), buf_[which].data()); }
+    float* slot(int y) { return buf_[0].data() + size_t(y % slots_) * row_; }
+    void read_into(int which, int y0) {
+        const int n = std::min(band_, h_ - y0);
+        if (halves_) src_.read_halves(y0, n, raw_[which].data());
+        else src_.read(y0, n, buf_[which].data());
+    }
     void join() {
         if (reader_.joinable()) reader_.join();
     }
 
     BandSource& src_;
     const int w_, h_, band_, keep_;
-    const bool overlap_;
+    const bool overlap_, halves_;
     const size_t row_;
+    int slots_ = 0;
     std::vector<float> buf_[2], tail_;
+    std::vector<uint16_t> raw_[2];
+    const uint16_t* cur_halves_ = nullptr;
     std::vector<const float*> table_;
     std::thread reader_;
     std::exception_ptr error_;
@@ -1006,7 +1032,7 @@ struct BandReducers {
         return r;
     }
     void add(BandRing& ring, float* const* rows, int y0, int n) {
-        sums.add_rows(rows, y0, n, hots.get());  // each row to hots too, while in the cache
+        sums.add_rows(rows, y0, n, hots.get(), ring.halves());  // each row to hots too, while in the cache
         const ImageView v = ring.view();
         for (auto* s : {bins.get(), irr_bins.get()})
             if (s) s->add_rows(v, ring.have0(), ring.have1());

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "iblbake/math/cube.h"
+#include "iblbake/math/half.h"
 #include "iblbake/math/latlong.h"
 #include "iblbake/util/parallel.h"
 #include "specular_kernel.h"
@@ -98,24 +99,40 @@ IBLBAKE_ROW_CLONES void scan_row(const float* row, int width, SourceScan& s) {
     // A row with bad values: each value classed by its bits, without a
     // branch (a 16K row with a few negative values spent a third of the
     // scan's time here): NaN, +-Inf, finite below 0 (not -0); the largest of
-    // the rest (-0 as +0) by their bits, as above.
+    // the rest (-0 as +0) by their bits, as above. Blocks of kScanBlock
+    // pixels with no such value take the vectorised max alone (a resized
+    // 16K world has a negative value in one row of four, a few in a row).
+    constexpr int kScanBlock = 16;
     uint32_t nan = 0, inf = 0, negative = 0, pixels = 0, good_top = 0;
     std::memcpy(&good_top, &s.max_value, sizeof(good_top));  // s is fresh: +0
-    for (int x = 0; x < width; ++x) {
-        uint32_t bad = 0;
-        for (int k = 0; k < 3; ++k) {
-            uint32_t u;
-            std::memcpy(&u, row + 3 * x + k, sizeof(u));
-            const uint32_t a = u & 0x7fffffffu, sign = u >> 31;
-            const uint32_t is_nan = a > 0x7f800000u, is_inf = a == 0x7f800000u;
-            const uint32_t is_neg = sign & uint32_t(a != 0u) & uint32_t(a < 0x7f800000u);
-            nan += is_nan;
-            inf += is_inf;
-            negative += is_neg;
-            bad |= is_nan | is_inf | is_neg;
-            good_top = std::max(good_top, (is_nan | is_inf | sign) ? 0u : u);
+    for (int x0 = 0; x0 < width; x0 += kScanBlock) {
+        const int x1 = std::min(width, x0 + kScanBlock);
+        uint32_t block_top = 0;
+        for (int k = 3 * x0; k < 3 * x1; ++k) {
+            uint32_t bits;
+            std::memcpy(&bits, row + k, sizeof(bits));
+            block_top = std::max(block_top, bits);
         }
-        pixels += bad;
+        if (block_top < 0x7f800000u) {
+            good_top = std::max(good_top, block_top);
+            continue;
+        }
+        for (int x = x0; x < x1; ++x) {
+            uint32_t bad = 0;
+            for (int k = 0; k < 3; ++k) {
+                uint32_t u;
+                std::memcpy(&u, row + 3 * x + k, sizeof(u));
+                const uint32_t a = u & 0x7fffffffu, sign = u >> 31;
+                const uint32_t is_nan = a > 0x7f800000u, is_inf = a == 0x7f800000u;
+                const uint32_t is_neg = sign & uint32_t(a != 0u) & uint32_t(a < 0x7f800000u);
+                nan += is_nan;
+                inf += is_inf;
+                negative += is_neg;
+                bad |= is_nan | is_inf | is_neg;
+                good_top = std::max(good_top, (is_nan | is_inf | sign) ? 0u : u);
+            }
+            pixels += bad;
+        }
     }
     s.bad.nan += nan;
     s.bad.inf += inf;
@@ -677,19 +694,21 @@ struct SummaryStream::Impl {
 SummaryStream::SummaryStream(int width, int height) : impl_(std::make_unique<Impl>(width, height)) {}
 SummaryStream::~SummaryStream() = default;
 
-void SummaryStream::add_rows(float* const* rows, int y0, int n, HotStream* hots) {
+void SummaryStream::add_rows(float* const* rows, int y0, int n, HotStream* hots, const uint16_t* halves) {
     Impl& m = *impl_;
     if (hots) hots->begin_rows(y0, n);
+    const size_t row_values = size_t(m.w) * 3;
     parallel_for(0, n, [&](int k) {
         const int y = y0 + k;
         float* row = rows[k];
+        if (halves) halves_to_floats(halves + size_t(k) * row_values, row, row_values);
         SourceScan& s = m.scans[y];
         s = SourceScan{};
         scan_row(row, m.w, s);
         if (s.bad.pixels) clean_values(row, row, size_t(m.w) * 3);
         m.sh.row(row, y);
         hot_row(row, m.w, y, m.tab, m.hot);
-        if (hots) hots->add_row(k, row);
+        if (hots) hots->add_row(k, row, m.hot.top[y]);
     });
     if (hots) hots->end_rows();
 }
@@ -732,9 +751,10 @@ void HotStream::begin_rows(int y0, int n) {
     found_.assign(size_t(n), {});
 }
 
-void HotStream::add_row(int k, const float* row) {
+void HotStream::add_row(int k, const float* row, float row_top) {
     std::vector<Entry>& f = found_[size_t(k)];
     const float floor = floor_;
+    if (!(row_top > floor)) return;
     for (int x = 0; x < w_; ++x) {
         const float* px = row + size_t(x) * 3;
         const float m = max3(px);

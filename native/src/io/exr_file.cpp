@@ -594,6 +594,20 @@ struct ExrRowReader::Impl {
         }
     }
 
+    bool has_halves() const {
+        return !rgba && all_half && names.size() == 3 && ox == 0 && oy == 0 && w == data_w && h == data_h;
+    }
+
+    void read_halves(int y0, int rows, uint16_t* out) {
+        if (!has_halves()) throw std::logic_error("ExrRowReader::read_halves: the rows are not halves");
+        if (rows <= 0) return;
+        if (y0 < 0 || rows > h || y0 > h - rows) throw std::out_of_range("rows outside the image");
+        const int fa = y0 + dw.min.y;
+        Imf::FrameBuffer fbuf;
+        detail::insert_half_slices(fbuf, names, reinterpret_cast<char*>(out), dw.min.x, fa, data_w);
+        read_file_rows(fa, fa + rows - 1, fbuf);
+    }
+
     void read(int y0, int rows, float* out) {
         if (rows <= 0) return;
         if (y0 < 0 || rows > h || y0 > h - rows) throw std::out_of_range("rows outside the image");
@@ -672,6 +686,20 @@ ExrRowReader::~ExrRowReader() = default;
 int ExrRowReader::width() const { return impl_->w; }
 int ExrRowReader::height() const { return impl_->h; }
 const std::vector<std::string>& ExrRowReader::warnings() const { return impl_->warnings; }
+
+bool ExrRowReader::has_halves() const { return impl_->has_halves(); }
+
+void ExrRowReader::read_halves(int y0, int rows, uint16_t* out) {
+    try {
+        impl_->read_halves(y0, rows, out);
+    } catch (const std::logic_error&) {
+        throw;  // the caller's rows or call, not the file
+    } catch (const std::bad_alloc&) {
+        detail::fail_reading(impl_->path, "out of memory while reading");
+    } catch (const std::exception& e) {
+        detail::fail_reading(impl_->path, e.what());
+    }
+}
 
 int ExrRowReader::preferred_band() const {
     const int block = impl_->tile_rows > 0 ? impl_->tile_rows : detail::lines_per_block(impl_->compression);

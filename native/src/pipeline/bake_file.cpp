@@ -27,6 +27,8 @@ public:
     int height() const override { return reader_->height(); }
     int preferred_band() const override { return reader_->preferred_band(); }
     void read(int y0, int rows, float* out) override { reader_->read(y0, rows, out); }
+    bool has_halves() const override { return reader_->has_halves(); }
+    void read_halves(int y0, int rows, uint16_t* out) override { reader_->read_halves(y0, rows, out); }
     const io::RowReader& reader() const { return *reader_; }
 
 private:

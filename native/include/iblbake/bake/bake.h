@@ -4,6 +4,7 @@
 // pipeline/ plans a bake, runs it and writes its files (pipeline/write.h).
 #pragma once
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <stdexcept>
@@ -195,6 +196,11 @@ BakeResult compute_bake_view(ImageView source, const BakeOptions& options, const
 // goes; issue 28, docs/design-streaming.md): read(y0, rows, out) writes rows
 // y0 .. y0 + rows - 1 as rows x width x 3 linear RGB floats. Rows are asked
 // for once each, in order; preferred_band() is the band a read decodes best.
+// A source whose rows are IEEE halves (has_halves()) is read by
+// read_halves() instead, rows x width x 3 of them, and each row made floats
+// by the pass that reduces it, while the row is in that core's cache (a
+// 16K band of floats is 25 MB: converted by the reader, it had left the
+// cache before it was read).
 class BandSource {
 public:
     virtual ~BandSource() = default;
@@ -202,6 +208,10 @@ public:
     virtual int height() const = 0;
     virtual int preferred_band() const = 0;
     virtual void read(int y0, int rows, float* out) = 0;
+    virtual bool has_halves() const { return false; }
+    virtual void read_halves(int /*y0*/, int /*rows*/, uint16_t* /*out*/) {
+        throw std::logic_error("BandSource::read_halves: the rows are not halves");
+    }
 };
 
 // Why a bake with these options needs the whole source in memory (a turn,

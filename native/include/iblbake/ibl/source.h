@@ -8,6 +8,7 @@
 // space (SPEC.md section 2); the image is Blender lat-long (section 1).
 #pragma once
 #include <array>
+#include <limits>
 #include <cstdint>
 #include <memory>
 #include <utility>
@@ -190,7 +191,11 @@ public:
     // rows[k]: row y0 + k, width x 3 floats, cleaned in place. Rows in
     // parallel. With `hots`, each cleaned row also goes to hots while it is
     // in the cache (what hots->add_rows would do after this call, to the bit).
-    void add_rows(float* const* rows, int y0, int n, class HotStream* hots = nullptr);
+    // With `halves`, rows[k] is first filled from halves + k x width x 3
+    // (IEEE binary16, RGB interleaved: halves_to_floats) by the task that
+    // then reduces it.
+    void add_rows(float* const* rows, int y0, int n, class HotStream* hots = nullptr,
+                  const uint16_t* halves = nullptr);
     SourceSummary finish();
 
 private:
@@ -215,7 +220,9 @@ public:
     // work too (SummaryStream::add_rows): begin_rows, then add_row for each
     // k in 0 .. n-1 (in parallel, each once), then end_rows.
     void begin_rows(int y0, int n);
-    void add_row(int k, const float* row);
+    // row_top: the row's largest max channel (hot_rows' top) when known:
+    // a row whose top is not above the heap's floor has no candidate.
+    void add_row(int k, const float* row, float row_top = std::numeric_limits<float>::infinity());
     void end_rows();
     HotSplit finish(double relative_threshold, const HotRows& rows);
     struct Entry;

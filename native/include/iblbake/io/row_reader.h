@@ -2,7 +2,9 @@
 // bake, docs/design-streaming.md): the rows read_image() would return, without
 // ever holding the whole image.
 #pragma once
+#include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -24,6 +26,15 @@ public:
     // Rows y0 .. y0 + rows - 1 (within 0..height-1) into out: rows x width x 3
     // floats, row-major, RGB interleaved.
     virtual void read(int y0, int rows, float* out) = 0;
+    // Whether read_halves() can be called: the rows are IEEE binary16 RGB
+    // in the file, every one of them data (no window to pad), so a caller
+    // may convert them itself, row by row, where the floats are used.
+    virtual bool has_halves() const { return false; }
+    // Rows y0 .. y0 + rows - 1 as rows x width x 3 halves, RGB interleaved:
+    // the bits whose halves_to_floats() read() returns.
+    virtual void read_halves(int /*y0*/, int /*rows*/, uint16_t* /*out*/) {
+        throw std::logic_error("RowReader::read_halves: the rows are not halves");
+    }
 };
 
 // The file as rows, decoded a band at a time: OpenEXR (ExrRowReader), PNG
@@ -60,6 +71,10 @@ public:
     // Rows y0 .. y0 + rows - 1 (within 0..height-1) into out: rows x width x 3
     // floats, row-major, RGB interleaved.
     void read(int y0, int rows, float* out) override;
+    // Three HALF channels, read as RGB (no luminance-chroma) and a data
+    // window that is the whole image.
+    bool has_halves() const override;
+    void read_halves(int y0, int rows, uint16_t* out) override;
 
 private:
     struct Impl;
