@@ -221,16 +221,18 @@ TEST(HotStream, BandsEqualSplitHot) {
         const char* what;
         int hot;     // texels made bright
         bool ties;   // every bright texel the same value
+        bool minus_zero = false;  // -0 beside each (a clean value whose sign bit is set, in its block of texels)
     };
     for (const World& world : {World{"no hot texel", 0, false}, World{"ten", 10, false},
                                World{"1500 (more than max_hot)", 1500, false}, World{"50000", 50000, false},
-                               World{"2000 equal ones", 2000, true}}) {
+                               World{"2000 equal ones", 2000, true}, World{"1500 beside -0", 1500, false, true}}) {
         Image img = ref::random_smooth_source(400, 200, 3);
         unsigned state = 12345;
         for (int k = 0; k < world.hot; ++k) {
             state = state * 1664525u + 1013904223u;
             const int x = int(state >> 8) % img.width, y = int(state >> 20) % img.height;
             img.at(x, y)[k % 3] = world.ties ? 1e4f : 1e3f + float(k % 977);
+            if (world.minus_zero) img.at(x ^ 1, y)[(k + 1) % 3] = -0.0f;
         }
         const SourceSummary summary = summarize_source(img);
         for (int max_hot : {0, 1, 64, 1024, 100000})

@@ -751,15 +751,40 @@ void HotStream::begin_rows(int y0, int n) {
     found_.assign(size_t(n), {});
 }
 
+namespace {
+// The texels of a clean row whose largest channel is above `floor`, in
+// order. Blocks of 16 texels whose largest value is not above it hold none:
+// one vectorised max of the values' bits less the sign (clean values are
+// +0 or above, or -0: their magnitudes' bits order as they do), the texels
+// looked at one by one only where it is above.
+IBLBAKE_ROW_CLONES void hot_candidates(const float* row, int w, float floor, int y,
+                                       std::vector<HotStream::Entry>& out) {
+    constexpr int kBlock = 16;
+    for (int x0 = 0; x0 < w; x0 += kBlock) {
+        const int x1 = std::min(w, x0 + kBlock);
+        uint32_t top = 0;
+        for (int i = 3 * x0; i < 3 * x1; ++i) {
+            uint32_t bits;
+            std::memcpy(&bits, row + i, sizeof(bits));
+            top = std::max(top, bits & 0x7fffffffu);
+        }
+        float block_top;
+        std::memcpy(&block_top, &top, sizeof(block_top));
+        if (!(block_top > floor)) continue;
+        for (int x = x0; x < x1; ++x) {
+            const float* px = row + size_t(x) * 3;
+            const float m = max3(px);
+            if (m > floor) out.push_back({m, x, y, {px[0], px[1], px[2]}});
+        }
+    }
+}
+}  // namespace
+
 void HotStream::add_row(int k, const float* row, float row_top) {
     std::vector<Entry>& f = found_[size_t(k)];
     const float floor = floor_;
     if (!(row_top > floor)) return;
-    for (int x = 0; x < w_; ++x) {
-        const float* px = row + size_t(x) * 3;
-        const float m = max3(px);
-        if (m > floor) f.push_back({m, x, y0_ + k, {px[0], px[1], px[2]}});
-    }
+    hot_candidates(row, w_, floor, y0_ + k, f);
     // Only a row's keep_ largest can be among the keep_ largest of all
     // (`larger` is a strict total order): the rest need not wait for the
     // merge (a whole band of candidates was 24 bytes a texel, 50 MB for
