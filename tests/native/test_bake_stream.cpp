@@ -147,6 +147,27 @@ std::vector<Image> sources() {
     return s;
 }
 
+// compute_bake_stream over the bands make_bands(band) makes gives `whole`,
+// to the bit: one thread (no reader thread) with bands of 40 rows, two with
+// bands of 1, 40 and every row.
+template <typename MakeBands>
+void expect_streamed_equals(const BakeResult& whole, const BakeOptions& options, MakeBands make_bands,
+                            const std::string& what) {
+    for (int threads : {1, 2})
+        for (int band : {1, 40, 100000}) {
+            if (threads == 1 && band != 40) continue;
+            BakeOptions o = options;
+            o.threads = threads;
+            ASSERT_EQ(whole_source_reason(o), "");
+            const std::string where = what + " threads " + std::to_string(threads) + " band " + std::to_string(band);
+            auto bands = make_bands(band);
+            const std::optional<BakeResult> streamed = compute_bake_stream(bands, o);
+            ASSERT_TRUE(streamed) << where;
+            expect_same(whole, *streamed, where);
+            EXPECT_GE(bands.reads, 1);
+        }
+}
+
 }  // namespace
 
 TEST(StreamedBake, EqualsTheWholeImageBakeToTheBit) {
@@ -164,20 +185,8 @@ TEST(StreamedBake, EqualsTheWholeImageBakeToTheBit) {
     for (size_t si = 0; si < srcs.size(); ++si)
         for (size_t oi = 0; oi < options.size(); ++oi) {
             const BakeResult whole = compute_bake(srcs[si], options[oi]);  // the same bits with any thread count
-            for (int threads : {1, 2})
-                for (int band : {1, 40, 100000}) {
-                    if (threads == 1 && band != 40) continue;  // one thread: no reader thread, one band height
-                    BakeOptions o = options[oi];
-                    o.threads = threads;
-                    ASSERT_EQ(whole_source_reason(o), "");
-                    const std::string what = "source " + std::to_string(si) + " options " + std::to_string(oi) +
-                                             " threads " + std::to_string(threads) + " band " + std::to_string(band);
-                    ImageBands bands(srcs[si], band);
-                    const std::optional<BakeResult> streamed = compute_bake_stream(bands, o);
-                    ASSERT_TRUE(streamed) << what;
-                    expect_same(whole, *streamed, what);
-                    EXPECT_GE(bands.reads, 1);
-                }
+            expect_streamed_equals(whole, options[oi], [&](int band) { return ImageBands(srcs[si], band); },
+                                   "source " + std::to_string(si) + " options " + std::to_string(oi));
         }
 }
 
@@ -196,19 +205,8 @@ TEST(StreamedBake, HalvesEqualTheWholeImageBakeToTheBit) {
         for (size_t oi = 0; oi < options.size(); ++oi) {
             const Image floats = HalfBands(srcs[si], 1).floats();
             const BakeResult whole = compute_bake(floats, options[oi]);
-            for (int threads : {1, 2})
-                for (int band : {1, 40, 100000}) {
-                    if (threads == 1 && band != 40) continue;
-                    BakeOptions o = options[oi];
-                    o.threads = threads;
-                    const std::string what = "source " + std::to_string(si) + " options " + std::to_string(oi) +
-                                             " threads " + std::to_string(threads) + " band " + std::to_string(band);
-                    HalfBands bands(srcs[si], band);
-                    const std::optional<BakeResult> streamed = compute_bake_stream(bands, o);
-                    ASSERT_TRUE(streamed) << what;
-                    expect_same(whole, *streamed, what);
-                    EXPECT_GE(bands.reads, 1);
-                }
+            expect_streamed_equals(whole, options[oi], [&](int band) { return HalfBands(srcs[si], band); },
+                                   "source " + std::to_string(si) + " options " + std::to_string(oi));
         }
 }
 

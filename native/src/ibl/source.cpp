@@ -79,6 +79,18 @@ namespace {
 #define IBLBAKE_ROW_CLONES
 #endif
 
+// The largest of n floats' bits, each masked by `mask`, as unsigned
+// integers (one vectorised max; inlined into each clone of its callers).
+__attribute__((always_inline)) inline uint32_t max_bits(const float* v, int n, uint32_t mask) {
+    uint32_t top = 0;
+    for (int k = 0; k < n; ++k) {
+        uint32_t bits;
+        std::memcpy(&bits, v + k, sizeof(bits));
+        top = std::max(top, bits & mask);
+    }
+    return top;
+}
+
 // One row of scan_source into s.
 IBLBAKE_ROW_CLONES void scan_row(const float* row, int width, SourceScan& s) {
     const int n = 3 * width;
@@ -86,12 +98,7 @@ IBLBAKE_ROW_CLONES void scan_row(const float* row, int width, SourceScan& s) {
     // >= 0 order as their bits do and stay below Inf's 0x7f800000, while
     // NaN, Inf and anything with the sign bit set (-0 included, which the
     // slow path then keeps) land at or above it.
-    uint32_t top = 0;
-    for (int k = 0; k < n; ++k) {
-        uint32_t bits;
-        std::memcpy(&bits, row + k, sizeof(bits));
-        top = std::max(top, bits);
-    }
+    const uint32_t top = max_bits(row, n, ~0u);
     if (top < 0x7f800000u) {
         std::memcpy(&s.max_value, &top, sizeof(top));
         return;
@@ -107,12 +114,7 @@ IBLBAKE_ROW_CLONES void scan_row(const float* row, int width, SourceScan& s) {
     std::memcpy(&good_top, &s.max_value, sizeof(good_top));  // s is fresh: +0
     for (int x0 = 0; x0 < width; x0 += kScanBlock) {
         const int x1 = std::min(width, x0 + kScanBlock);
-        uint32_t block_top = 0;
-        for (int k = 3 * x0; k < 3 * x1; ++k) {
-            uint32_t bits;
-            std::memcpy(&bits, row + k, sizeof(bits));
-            block_top = std::max(block_top, bits);
-        }
+        const uint32_t block_top = max_bits(row + 3 * x0, 3 * (x1 - x0), ~0u);
         if (block_top < 0x7f800000u) {
             good_top = std::max(good_top, block_top);
             continue;
@@ -762,12 +764,7 @@ IBLBAKE_ROW_CLONES void hot_candidates(const float* row, int w, float floor, int
     constexpr int kBlock = 16;
     for (int x0 = 0; x0 < w; x0 += kBlock) {
         const int x1 = std::min(w, x0 + kBlock);
-        uint32_t top = 0;
-        for (int i = 3 * x0; i < 3 * x1; ++i) {
-            uint32_t bits;
-            std::memcpy(&bits, row + i, sizeof(bits));
-            top = std::max(top, bits & 0x7fffffffu);
-        }
+        const uint32_t top = max_bits(row + 3 * x0, 3 * (x1 - x0), 0x7fffffffu);
         float block_top;
         std::memcpy(&block_top, &top, sizeof(block_top));
         if (!(block_top > floor)) continue;
