@@ -604,11 +604,39 @@ std::array<Sh9, 3> sh9_total(const std::vector<std::array<Sh9, 3>>& rows) {
     return sum;
 }
 
+}  // namespace
+
+double kernel::sh9_quarter_tables(int w, std::vector<double> (&q)[4]) {
+    // lon_integrals' cos, sin, cos^2 - p0 / 2 and sin cos integrals in
+    // closed form (no difference of nearby sines): over a column of width
+    // p0 centred on phi, 2 sin(p0 / 2) (cos phi, sin phi) and
+    // sin(p0) / 2 (cos 2 phi, sin 2 phi).
+    const int n = w / 4;
+    const double p0 = 2.0 * kPi / w, half = 2.0 * std::sin(0.5 * p0), full = 0.5 * std::sin(p0);
+    for (auto& v : q) v.resize(n);
+    for (int x = 0; x < n; ++x) {
+        const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
+        q[0][x] = half * std::cos(phi);
+        q[1][x] = half * std::sin(phi);
+        q[2][x] = full * std::cos(2.0 * phi);
+        q[3][x] = full * std::sin(2.0 * phi);
+    }
+    return p0;
+}
+
+namespace {
+
 // The SH9 projection row by row: row(y) is independent of every other row;
 // total() sums them in a fixed order (the same for any thread count).
 class Sh9Rows {
 public:
-    Sh9Rows(const LatLongTables& tab, int w, int h) : tab_(tab), w_(w), rows_(h), row_sums_(kernel::sh9_row_fn()) {
+    Sh9Rows(const LatLongTables& tab, int w, int h)
+        : tab_(tab), w_(w), rows_(h), row_sums_(kernel::sh9_row_fn()), quarter_sums_(kernel::sh9_row_quarter_fn()) {
+        if (w % 4 == 0) {  // the quarter tables (kernel::sh9_row_quarter_fn)
+            p0_ = kernel::sh9_quarter_tables(w, wq_);
+            for (int k = 0; k < 4; ++k) wqp_[k] = wq_[k].data();
+            return;
+        }
         // The six longitude integrals per column, structure-of-arrays.
         for (auto& v : wl_) v.resize(w);
         for (int x = 0; x < w; ++x) {
@@ -620,11 +648,13 @@ public:
     }
     // The basis integrals are linear in the longitude integrals, so a row's
     // projection is sh9_rect_integral of the radiance-weighted sums of them:
-    // 18 dot products per row, in fixed lanes (kernel::sh9_row_fn, built for
-    // the CPU's vectors).
+    // 18 dot products per row (or 15 over a quarter of the row's columns), in
+    // fixed lanes (kernel::sh9_row_fn and sh9_row_quarter_fn, built for the
+    // CPU's vectors).
     void row(const float* px, int y) {
         double t[3][6];
-        row_sums_(px, w_, wlp_, t);
+        if (p0_ > 0.0) quarter_sums_(px, w_, wqp_, p0_, t);
+        else row_sums_(px, w_, wlp_, t);
         for (int c = 0; c < 3; ++c)
             rows_[y][c] = sh9_rect_integral(LonIntegrals{t[c][0], t[c][1], t[c][2], t[c][3], t[c][4], t[c][5]}, tab_.lat[y]);
     }
@@ -634,10 +664,13 @@ public:
 private:
     const LatLongTables& tab_;
     int w_;
-    std::vector<double> wl_[6];
-    const double* wlp_[6];
+    std::vector<double> wl_[6], wq_[4];
+    const double* wlp_[6] = {};
+    const double* wqp_[4] = {};
+    double p0_ = 0.0;  // > 0: a width of 4 n, the quarter tables
     std::vector<std::array<Sh9, 3>> rows_;
     kernel::Sh9RowFn row_sums_;
+    kernel::Sh9QuarterFn quarter_sums_;
 };
 
 }  // namespace

@@ -428,6 +428,16 @@ kernel::Sh9RowFn kernel::sh9_row_fn() {
     }
 }
 
+kernel::Sh9QuarterFn kernel::sh9_row_quarter_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::sh9_row_quarter_avx512;
+        case Isa::Avx2: return kernel::sh9_row_quarter_avx2;
+#endif
+        default: return kernel::sh9_row_quarter_baseline;
+    }
+}
+
 const char* specular_kernel_isa() { return kIsaNames[isa_choice().load()]; }
 
 bool set_specular_traversal_lanes(bool on) {

@@ -8,6 +8,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 namespace iblbake {
 namespace kernel {
@@ -47,6 +48,16 @@ using Sh9RowFn = void (*)(const float* row, int width, const double* const* wl, 
 void sh9_row_baseline(const float* row, int width, const double* const* wl, double (*t)[6]);
 void sh9_row_avx2(const float* row, int width, const double* const* wl, double (*t)[6]);
 void sh9_row_avx512(const float* row, int width, const double* const* wl, double (*t)[6]);
+// The same from a quarter of the tables, for a width divisible by 4
+// (row_kernels_impl.h): q[0..3] the first n = width / 4 columns' cos, sin,
+// cos^2 less p0 / 2 and sin cos integrals, p0 a column's width in phi.
+using Sh9QuarterFn = void (*)(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
+void sh9_row_quarter_baseline(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
+void sh9_row_quarter_avx2(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
+void sh9_row_quarter_avx512(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
+// The quarter tables of a width divisible by 4 (q[k] resized to width / 4);
+// returns p0 (source.cpp).
+double sh9_quarter_tables(int width, std::vector<double> (&q)[4]);
 
 // Lat-long coordinates of a cube face row's texel centres, in source texel
 // units as latlong_bilinear takes them (fx = u w - 0.5 with u wrapped to
@@ -79,6 +90,7 @@ IrrSumFn irr_sum_fn();
 // These for the instruction set the specular kernel runs with
 // (specular_kernel_isa(), IBLBAKE_ISA).
 Sh9RowFn sh9_row_fn();
+Sh9QuarterFn sh9_row_quarter_fn();
 
 // One level of the specular traversal (specular.cpp's gather_bins) in lanes:
 // for the n nodes cur[0..n) of a level (nodes: 16 floats each, BinNode's
