@@ -67,7 +67,7 @@ public:
         EXPECT_EQ(y0, next_) << "rows asked for out of order";
         EXPECT_TRUE(rows >= 1 && y0 + rows <= h_);
         next_ = y0 + rows;
-        ++reads;
+        if (++reads == fail_at) throw std::runtime_error("cannot read 'x.exr': damaged block");
         std::memcpy(out, h16_.data() + size_t(y0) * w_ * 3, size_t(rows) * w_ * 3 * sizeof(uint16_t));
     }
     // The image the halves are (what the whole-image bake is given).
@@ -77,6 +77,7 @@ public:
         return img;
     }
     int reads = 0;
+    int fail_at = 0;  // the read that throws (0: none)
 
 private:
     int w_, h_, band_, next_ = 0;
@@ -273,6 +274,33 @@ TEST(StreamedBake, AFailingReadEndsTheBakeWithItsError) {
                 EXPECT_STREQ(e.what(), "cannot read 'x.exr': damaged block");
             }
         }
+}
+
+// The same for a source of halves, whose reader thread reads ahead while
+// the bands before are reduced (BandRing::read_ahead): its error reaches the
+// bake, and a cancelled pass stops it within two bands.
+TEST(StreamedBake, HalvesReadAheadFailsAndCancelsCleanly) {
+    const Image src = ref::random_smooth_source(256, 128, 2);
+    for (int threads : {1, 2})
+        for (int fail_at : {1, 2, 3, 5, 8}) {
+            BakeOptions o = small_options();
+            o.threads = threads;
+            HalfBands f(src, 16);
+            f.fail_at = fail_at;
+            try {
+                compute_bake_stream(f, o);
+                ADD_FAILURE() << "no error, threads " << threads << " read " << fail_at;
+            } catch (const std::runtime_error& e) {
+                EXPECT_STREQ(e.what(), "cannot read 'x.exr': damaged block");
+            }
+        }
+    HalfBands bands(src, 16);
+    int calls = 0;
+    EXPECT_THROW(compute_bake_stream(bands, small_options(), [&](const std::string& s, double) {
+                     return !(s == "reading source" && ++calls == 3);
+                 }),
+                 Cancelled);
+    EXPECT_LE(bands.reads, 5);  // the three bands reduced and at most two read ahead
 }
 
 // bake_file on an EXR with a value of 2^64 or more: the stream hands back

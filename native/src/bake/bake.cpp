@@ -8,10 +8,12 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <condition_variable>
 #include <cstring>
 #include <exception>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <thread>
 
@@ -903,6 +905,10 @@ void finish_and_check(SourceBake& b) {
 // and its floats are written by the pass that reduces them (halves()),
 // into a ring of band + keep rows (row y at slot y mod (band + keep)): the
 // rows a band's bins still need from the band before stay where they are.
+// Its reader is one thread for the whole pass, which starts band k + 1 as
+// soon as band k - 1's halves are made floats (halves_done(), before the
+// rest of that band is reduced), so that the decoder is never waiting for
+// a band's last reductions, nor they for its last blocks.
 class BandRing {
 public:
     BandRing(BandSource& src, int band, int keep, bool overlap)
@@ -921,15 +927,32 @@ public:
     }
     BandRing(const BandRing&) = delete;
     BandRing& operator=(const BandRing&) = delete;
-    ~BandRing() { join(); }
+    ~BandRing() {
+        {
+            std::lock_guard<std::mutex> lock(m_);
+            stop_ = true;
+        }
+        cv_.notify_all();
+        join();
+    }
 
     // The next band: its rows (to be cleaned in place), first row and count; false after the last.
     bool next(std::vector<float*>& rows, int& y0, int& n) {
         if (next_y_ >= h_) return false;
         const int cur = k_ & 1;
         if (k_ == 0) read_into(cur, 0);
-        join();  // band k was being read into buffer cur
-        if (error_) std::rethrow_exception(error_);
+        if (streaming()) {
+            std::exception_ptr failed;  // band k's read, not a later one's
+            {
+                std::unique_lock<std::mutex> lock(m_);
+                cv_.wait(lock, [this] { return read_ >= k_ || error_; });  // band k in buffer cur
+                if (read_ < k_) failed = error_;
+            }
+            if (failed) std::rethrow_exception(failed);
+        } else {
+            join();  // band k was being read into buffer cur
+            if (error_) std::rethrow_exception(error_);
+        }
         y0 = next_y_;
         n = std::min(band_, h_ - y0);
         std::fill(table_.begin() + have0_, table_.begin() + (have1_ + 1), nullptr);
@@ -945,6 +968,10 @@ public:
         have1_ = y0 + n - 1;
         next_y_ = y0 + n;
         ++k_;
+        if (streaming()) {
+            if (k_ == 1 && next_y_ < h_) reader_ = std::thread([this] { read_ahead(); });
+            return true;
+        }
         if (next_y_ < h_ && overlap_) {
             const int other = k_ & 1, start = next_y_;
             reader_ = std::thread([this, other, start] {
@@ -960,10 +987,21 @@ public:
     // The band's rows as halves, rows x width x 3, when the source gives
     // halves: the rows next() returned are then to be filled from them (null otherwise).
     const uint16_t* halves() const { return cur_halves_; }
+    // The band's halves are made floats: its buffer may take the band after next.
+    void halves_done() {
+        if (!streaming()) return;
+        {
+            std::lock_guard<std::mutex> lock(m_);
+            freed_ = k_ - 1;
+        }
+        cv_.notify_all();
+    }
     // After a band is reduced: its last rows to the tail, and (without the
     // reader thread) the next band read.
     void done() {
+        halves_done();  // if the pass did not say so
         if (next_y_ >= h_) return;
+        if (streaming()) return;
         if (!halves_) {
             const float* last = buf_[(k_ - 1) & 1].data() + size_t(band_ - keep_) * row_;  // a band before the last is whole
             std::memcpy(tail_.data(), last, size_t(keep_) * row_ * sizeof(float));
@@ -981,6 +1019,33 @@ public:
 
 private:
     float* slot(int y) { return buf_[0].data() + size_t(y % slots_) * row_; }
+    bool streaming() const { return halves_ && overlap_; }
+    // The reader thread of a source of halves: band j into buffer j & 1 once
+    // band j - 2 is made floats, bands 1 .. the last in turn.
+    void read_ahead() {
+        for (int j = 1;; ++j) {
+            const int y0 = j * band_;
+            if (y0 >= h_) return;
+            {
+                std::unique_lock<std::mutex> lock(m_);
+                cv_.wait(lock, [this, j] { return freed_ >= j - 2 || stop_; });
+                if (stop_) return;
+            }
+            try {
+                read_into(j & 1, y0);
+            } catch (...) {
+                std::lock_guard<std::mutex> lock(m_);
+                error_ = std::current_exception();
+                cv_.notify_all();
+                return;
+            }
+            {
+                std::lock_guard<std::mutex> lock(m_);
+                read_ = j;
+            }
+            cv_.notify_all();
+        }
+    }
     void read_into(int which, int y0) {
         const int n = std::min(band_, h_ - y0);
         if (halves_) src_.read_halves(y0, n, raw_[which].data());
@@ -1002,6 +1067,12 @@ private:
     std::thread reader_;
     std::exception_ptr error_;
     int k_ = 0, next_y_ = 0, have0_ = 0, have1_ = -1;
+    // The reader of halves and the pass: the last band read, the last band
+    // whose halves are floats, and the pass's end.
+    std::mutex m_;
+    std::condition_variable cv_;
+    int read_ = 0, freed_ = -1;
+    bool stop_ = false;
 };
 
 // What a streamed pass reduces each band into: the summary (SummaryStream),
@@ -1033,6 +1104,7 @@ struct BandReducers {
     }
     void add(BandRing& ring, float* const* rows, int y0, int n) {
         sums.add_rows(rows, y0, n, hots.get(), ring.halves());  // each row to hots too, while in the cache
+        ring.halves_done();
         const ImageView v = ring.view();
         for (auto* s : {bins.get(), irr_bins.get()})
             if (s) s->add_rows(v, ring.have0(), ring.have1());
