@@ -8,6 +8,9 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#if defined(__AVX512F__)
+#include <immintrin.h>  // row_pieces' conversions
+#endif
 
 #include "iblbake/math/fast_math.h"
 #include "specular_kernel.h"
@@ -143,6 +146,59 @@ void IBLBAKE_ROW_KERNEL(sh9_row_quarter)(const float* row, int width, const doub
         t[c][4] = 0.5 * p0 * s[0] - s[3];
         t[c][5] = s[4];
     }
+}
+
+// A bin row's five column sums (source.cpp's add_row_pieces), the whole
+// blocks of kBlock columns: each block taken through every piece at once,
+// its sums kept in registers (a 16K row's five sums, 2 MB of doubles, were
+// read and written once per piece, about 64 times a bin row); returns the
+// first column not summed. No fused multiply-add (fp-contract off) and each
+// column's products added in the pieces' order, so every instruction set
+// and block width gives the same bits: those of adding the pieces' products
+// row by row. The block is as wide as the registers hold its 5 x kV sums
+// (GCC's target_clones had given AVX2 twice as many as it has, spilled on
+// every piece, and AVX-512 two half conversions and a shuffle for each
+// vcvtps2pd).
+__attribute__((optimize("fp-contract=off"))) size_t IBLBAKE_ROW_KERNEL(row_pieces)(const float* const* src,
+                                                                                  const double* w, size_t pieces,
+                                                                                  size_t n, double* const* out) {
+#if defined(__AVX512F__)
+    constexpr int kL = 8, kV = 4;  // 20 of 32 zmm
+#elif defined(__AVX2__)
+    constexpr int kL = 4, kV = 2;  // 10 of 16 ymm
+#else
+    constexpr int kL = 2, kV = 2;  // 10 of 16 xmm
+#endif
+    constexpr size_t kBlock = size_t(kL) * kV;
+    typedef double VD __attribute__((vector_size(8 * kL)));
+    size_t i0 = 0;
+    for (; i0 + kBlock <= n; i0 += kBlock) {
+        VD acc[5][kV], v[kV];
+        auto load = [&](size_t p) {
+            for (int q = 0; q < kV; ++q) {
+#if defined(__AVX512F__)
+                v[q] = VD(_mm512_maskz_cvtps_pd(__mmask8(0xff), _mm256_loadu_ps(src[p] + i0 + kL * q)));
+#else
+                typedef float VF __attribute__((vector_size(4 * kL)));
+                VF f;
+                std::memcpy(&f, src[p] + i0 + kL * q, sizeof(f));
+                v[q] = __builtin_convertvector(f, VD);
+#endif
+            }
+        };
+        load(0);
+        for (int k = 0; k < 5; ++k)
+            for (int q = 0; q < kV; ++q) acc[k][q] = v[q] * w[k];
+        for (size_t p = 1; p < pieces; ++p) {
+            load(p);
+            for (int k = 0; k < 5; ++k) {
+                const double wk = w[5 * p + k];
+                for (int q = 0; q < kV; ++q) acc[k][q] += v[q] * wk;
+            }
+        }
+        for (int k = 0; k < 5; ++k) std::memcpy(out[k] + i0, acc[k], sizeof(acc[k]));
+    }
+    return i0;
 }
 
 void IBLBAKE_ROW_KERNEL(mirror_row)(const double* frame, double b, int n, int w, int h, double* fx, double* fy) {

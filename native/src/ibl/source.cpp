@@ -8,6 +8,7 @@
 #include <limits>
 #include <utility>
 
+
 #include "iblbake/math/cube.h"
 #include "iblbake/math/half.h"
 #include "iblbake/math/latlong.h"
@@ -452,49 +453,27 @@ namespace {
 
 // A bin row's row pieces into the five column sums:
 // c_k[i] = sum over pieces p (in order) of src_p[i] * w_p[k], the first
-// product stored, the others added to it. Blocks of kRowBlock columns are
-// taken through every piece at once, their sums kept in registers (a 16K
-// row's five sums, 2 MB of doubles, were read and written once per piece,
-// about 64 times a bin row). Built for AVX-512, AVX2 and baseline x86-64
-// (target_clones) with no fused multiply-add (fp-contract off), so every
-// version gives the same bits, and each sum the same operations in the same
-// order as adding the pieces row by row.
-constexpr size_t kRowBlock = 32;
-typedef double V8d __attribute__((vector_size(64)));  // GCC's vectors: zmm, two ymm or four xmm by the clone
-typedef float V8f __attribute__((vector_size(32)));
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
-#endif
-void add_row_pieces(const float* const* src, const double* w, size_t pieces, size_t n, double* cs0, double* cs1,
-                    double* cs2, double* cc0, double* cc1) {
-    double* const out[5] = {cs0, cs1, cs2, cc0, cc1};
-    size_t i0 = 0;
-    for (; i0 + kRowBlock <= n; i0 += kRowBlock) {
-        constexpr int kV = int(kRowBlock / 8);
-        V8d acc[5][kV];
-        for (size_t p = 0; p < pieces; ++p) {
-            V8d v[kV];
-            for (int q = 0; q < kV; ++q) {
-                V8f f;
-                std::memcpy(&f, src[p] + i0 + 8 * q, sizeof(f));
-                v[q] = __builtin_convertvector(f, V8d);
-            }
-            const double* wp = w + 5 * p;
-            for (int k = 0; k < 5; ++k) {
-                const V8d wk = V8d{} + wp[k];
-                for (int q = 0; q < kV; ++q) acc[k][q] = p == 0 ? v[q] * wk : acc[k][q] + v[q] * wk;
-            }
-        }
-        for (int k = 0; k < 5; ++k) std::memcpy(out[k] + i0, acc[k], sizeof(acc[k]));
-    }
-    if (i0 == n) return;
-    // The last columns, fewer than a block: the same sums column by column.
+// product stored, the others added to it (kernel::row_pieces_fn: blocks of
+// 32 columns in registers, the same operations in the same order, so every
+// instruction set gives the same bits).
+// The last columns, fewer than a block: the same sums column by column
+// (built for the baseline x86-64: no fused multiply-add).
+void add_row_pieces_tail(const float* const* src, const double* w, size_t pieces, size_t i0, size_t n,
+                         double* const* out) {
     for (size_t i = i0; i < n; ++i)
         for (int k = 0; k < 5; ++k) {
             double a = double(src[0][i]) * w[k];
             for (size_t p = 1; p < pieces; ++p) a += double(src[p][i]) * w[5 * p + k];
             out[k][i] = a;
         }
+}
+
+// c_k for k = 0..4 into cs0, cs1, cs2, cc0, cc1 (at least one piece): the
+// whole blocks by kernel::row_pieces_fn, built for the CPU's vectors.
+void add_row_pieces(const float* const* src, const double* w, size_t pieces, size_t n, double* cs0, double* cs1,
+                    double* cs2, double* cc0, double* cc1) {
+    double* const out[5] = {cs0, cs1, cs2, cc0, cc1};
+    add_row_pieces_tail(src, w, pieces, kernel::row_pieces_fn()(src, w, pieces, n, out), n, out);
 }
 
 }  // namespace

@@ -428,6 +428,16 @@ kernel::Sh9RowFn kernel::sh9_row_fn() {
     }
 }
 
+kernel::RowPiecesFn kernel::row_pieces_fn() {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+#if defined(IBLBAKE_KERNEL_X86)
+        case Isa::Avx512: return kernel::row_pieces_avx512;
+        case Isa::Avx2: return kernel::row_pieces_avx2;
+#endif
+        default: return kernel::row_pieces_baseline;
+    }
+}
+
 kernel::Sh9QuarterFn kernel::sh9_row_quarter_fn() {
     switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
 #if defined(IBLBAKE_KERNEL_X86)

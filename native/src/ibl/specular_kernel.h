@@ -55,6 +55,16 @@ using Sh9QuarterFn = void (*)(const float* row, int width, const double* const* 
 void sh9_row_quarter_baseline(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
 void sh9_row_quarter_avx2(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
 void sh9_row_quarter_avx512(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
+// A bin row's five column sums over its row pieces (source.cpp's
+// add_row_pieces), the whole blocks of 32 columns; returns the first column
+// not summed. The same bits for every instruction set (no FMA).
+using RowPiecesFn = size_t (*)(const float* const* src, const double* w, size_t pieces, size_t n,
+                               double* const* out);
+size_t row_pieces_baseline(const float* const* src, const double* w, size_t pieces, size_t n, double* const* out);
+size_t row_pieces_avx2(const float* const* src, const double* w, size_t pieces, size_t n, double* const* out);
+size_t row_pieces_avx512(const float* const* src, const double* w, size_t pieces, size_t n, double* const* out);
+RowPiecesFn row_pieces_fn();
+
 // The quarter tables of a width divisible by 4 (q[k] resized to width / 4);
 // returns p0 (source.cpp).
 double sh9_quarter_tables(int width, std::vector<double> (&q)[4]);
