@@ -77,9 +77,14 @@ void IBLBAKE_ROW_KERNEL(sh9_row)(const float* row, int width, const double* cons
 //   sum psc g        = the sin cos integral,
 // where pc, ps, d, psc (q[0..3]) are column x's (x < n) and p0 every column's
 // width in phi. Per pixel a quarter of the table reads and about half the
-// arithmetic of sh9_row; the same sums, not the same rounding.
-void IBLBAKE_ROW_KERNEL(sh9_row_quarter)(const float* row, int width, const double* const* q, double p0,
-                                          double (*t)[6]) {
+// arithmetic of sh9_row; the same sums, not the same rounding. No fused
+// multiply-add (fp-contract off): with it, which product of pc a + ps b a
+// compiler fuses is its own choice, and GCC 10 (the wheels) and 12 chose
+// differently; without it every compiler and instruction set gives the
+// same bits.
+__attribute__((optimize("fp-contract=off"))) void IBLBAKE_ROW_KERNEL(sh9_row_quarter)(const float* row, int width,
+                                                                                      const double* const* q,
+                                                                                      double p0, double (*t)[6]) {
     constexpr int kLanes8 = 8;
     typedef double V8d __attribute__((vector_size(64)));
     typedef float V8f __attribute__((vector_size(32)));
