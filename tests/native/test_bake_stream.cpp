@@ -246,6 +246,18 @@ TEST(StreamedBake, CancelDuringThePassStopsReading) {
     EXPECT_LE(bands.reads, 5);  // the band being read beside the third, at most
 }
 
+namespace {
+// The streamed bake of `src` ends with the source's read error, and only it.
+void expect_damaged_block(BandSource& src, const BakeOptions& o, const std::string& where) {
+    try {
+        compute_bake_stream(src, o);
+        ADD_FAILURE() << "no error, " << where;
+    } catch (const std::runtime_error& e) {
+        EXPECT_STREQ(e.what(), "cannot read 'x.exr': damaged block") << where;
+    }
+}
+}  // namespace
+
 // A read that fails (a damaged block) ends the bake with its error, on the
 // first read or on the reader thread's, with one thread or two.
 TEST(StreamedBake, AFailingReadEndsTheBakeWithItsError) {
@@ -267,12 +279,7 @@ TEST(StreamedBake, AFailingReadEndsTheBakeWithItsError) {
             BakeOptions o = small_options();
             o.threads = threads;
             Failing f(src, fail_at);
-            try {
-                compute_bake_stream(f, o);
-                ADD_FAILURE() << "no error, threads " << threads << " read " << fail_at;
-            } catch (const std::runtime_error& e) {
-                EXPECT_STREQ(e.what(), "cannot read 'x.exr': damaged block");
-            }
+            expect_damaged_block(f, o, "threads " + std::to_string(threads) + " read " + std::to_string(fail_at));
         }
 }
 
@@ -287,12 +294,7 @@ TEST(StreamedBake, HalvesReadAheadFailsAndCancelsCleanly) {
             o.threads = threads;
             HalfBands f(src, 16);
             f.fail_at = fail_at;
-            try {
-                compute_bake_stream(f, o);
-                ADD_FAILURE() << "no error, threads " << threads << " read " << fail_at;
-            } catch (const std::runtime_error& e) {
-                EXPECT_STREQ(e.what(), "cannot read 'x.exr': damaged block");
-            }
+            expect_damaged_block(f, o, "threads " + std::to_string(threads) + " read " + std::to_string(fail_at));
         }
     HalfBands bands(src, 16);
     int calls = 0;

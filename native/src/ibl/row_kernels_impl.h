@@ -1,4 +1,4 @@
-// The SH9 projection's row sums, mip 0's lat-long coordinates and the
+// The SH9 projection's row sums, the bins' column sums, mip 0's lat-long coordinates and the
 // irradiance's cosine sums (specular_kernel.h), included by one translation
 // unit per instruction set (specular_kernel_*.cpp) with IBLBAKE_ISA_SUFFIX
 // naming the functions it defines (sh9_row_<suffix>, ...); nothing else
@@ -22,33 +22,44 @@
 namespace iblbake {
 namespace kernel {
 
+namespace {
+typedef double Rgb8d __attribute__((vector_size(64)));
+typedef float Rgb8f __attribute__((vector_size(32)));
+typedef int Rgb8i __attribute__((vector_size(32)));
+
+// Eight RGB pixels, the 24 floats from p, into one vector of doubles per
+// channel (the SH9 row kernels').
+inline void rgb8_to_doubles(const float* p, Rgb8d out[3]) {
+    Rgb8f a, b, c3;
+    std::memcpy(&a, p, sizeof(a));
+    std::memcpy(&b, p + 8, sizeof(b));
+    std::memcpy(&c3, p + 16, sizeof(c3));
+    const Rgb8f r = __builtin_shuffle(__builtin_shuffle(a, b, Rgb8i{0, 3, 6, 9, 12, 15, 0, 0}), c3,
+                                      Rgb8i{0, 1, 2, 3, 4, 5, 10, 13});
+    const Rgb8f g = __builtin_shuffle(__builtin_shuffle(a, b, Rgb8i{1, 4, 7, 10, 13, 0, 0, 0}), c3,
+                                      Rgb8i{0, 1, 2, 3, 4, 8, 11, 14});
+    const Rgb8f bl = __builtin_shuffle(__builtin_shuffle(a, b, Rgb8i{2, 5, 8, 11, 14, 0, 0, 0}), c3,
+                                       Rgb8i{0, 1, 2, 3, 4, 9, 12, 15});
+    out[0] = __builtin_convertvector(r, Rgb8d);
+    out[1] = __builtin_convertvector(g, Rgb8d);
+    out[2] = __builtin_convertvector(bl, Rgb8d);
+}
+}  // namespace
+
 // Lanes as GCC vectors of 8 doubles (zmm on AVX-512, whose 32 registers
 // hold the 18 sums; plain arrays spilled them on every pixel), lane l the
 // columns x0 + l as before, so every version adds the same products in the
 // same order (only FMA rounding differs between instruction sets).
 void IBLBAKE_ROW_KERNEL(sh9_row)(const float* row, int width, const double* const* wl, double (*t)[6]) {
     constexpr int kLanes8 = 8;  // independent partial sums, one vector of doubles on AVX-512
-    typedef double V8d __attribute__((vector_size(64)));
-    typedef float V8f __attribute__((vector_size(32)));
-    typedef int V8i __attribute__((vector_size(32)));
+    typedef Rgb8d V8d;
     V8d acc[3][6];
     for (int c = 0; c < 3; ++c)
         for (int k = 0; k < 6; ++k) acc[c][k] = V8d{};
     const int whole = width / kLanes8 * kLanes8;
     for (int x0 = 0; x0 < whole; x0 += kLanes8) {
-        // Eight RGB pixels, 24 floats, into one vector per channel.
-        V8f a, b, c3;
-        std::memcpy(&a, row + size_t(x0) * 3, sizeof(a));
-        std::memcpy(&b, row + size_t(x0) * 3 + 8, sizeof(b));
-        std::memcpy(&c3, row + size_t(x0) * 3 + 16, sizeof(c3));
-        const V8f r = __builtin_shuffle(__builtin_shuffle(a, b, V8i{0, 3, 6, 9, 12, 15, 0, 0}), c3,
-                                        V8i{0, 1, 2, 3, 4, 5, 10, 13});
-        const V8f g = __builtin_shuffle(__builtin_shuffle(a, b, V8i{1, 4, 7, 10, 13, 0, 0, 0}), c3,
-                                        V8i{0, 1, 2, 3, 4, 8, 11, 14});
-        const V8f bl = __builtin_shuffle(__builtin_shuffle(a, b, V8i{2, 5, 8, 11, 14, 0, 0, 0}), c3,
-                                         V8i{0, 1, 2, 3, 4, 9, 12, 15});
-        const V8d v[3] = {__builtin_convertvector(r, V8d), __builtin_convertvector(g, V8d),
-                          __builtin_convertvector(bl, V8d)};
+        V8d v[3];
+        rgb8_to_doubles(row + size_t(x0) * 3, v);
         for (int k = 0; k < 6; ++k) {
             V8d w;
             std::memcpy(&w, wl[k] + x0, sizeof(w));
@@ -86,9 +97,7 @@ __attribute__((optimize("fp-contract=off"))) void IBLBAKE_ROW_KERNEL(sh9_row_qua
                                                                                       const double* const* q,
                                                                                       double p0, double (*t)[6]) {
     constexpr int kLanes8 = 8;
-    typedef double V8d __attribute__((vector_size(64)));
-    typedef float V8f __attribute__((vector_size(32)));
-    typedef int V8i __attribute__((vector_size(32)));
+    typedef Rgb8d V8d;
     const int n = width / 4;
     V8d acc[3][5];
     for (int c = 0; c < 3; ++c)
@@ -96,22 +105,7 @@ __attribute__((optimize("fp-contract=off"))) void IBLBAKE_ROW_KERNEL(sh9_row_qua
     const int whole = n / kLanes8 * kLanes8;
     for (int x0 = 0; x0 < whole; x0 += kLanes8) {
         V8d L[4][3];
-        for (int j = 0; j < 4; ++j) {
-            const float* p = row + size_t(x0 + j * n) * 3;
-            V8f a, b, c3;
-            std::memcpy(&a, p, sizeof(a));
-            std::memcpy(&b, p + 8, sizeof(b));
-            std::memcpy(&c3, p + 16, sizeof(c3));
-            const V8f r = __builtin_shuffle(__builtin_shuffle(a, b, V8i{0, 3, 6, 9, 12, 15, 0, 0}), c3,
-                                            V8i{0, 1, 2, 3, 4, 5, 10, 13});
-            const V8f g = __builtin_shuffle(__builtin_shuffle(a, b, V8i{1, 4, 7, 10, 13, 0, 0, 0}), c3,
-                                            V8i{0, 1, 2, 3, 4, 8, 11, 14});
-            const V8f bl = __builtin_shuffle(__builtin_shuffle(a, b, V8i{2, 5, 8, 11, 14, 0, 0, 0}), c3,
-                                             V8i{0, 1, 2, 3, 4, 9, 12, 15});
-            L[j][0] = __builtin_convertvector(r, V8d);
-            L[j][1] = __builtin_convertvector(g, V8d);
-            L[j][2] = __builtin_convertvector(bl, V8d);
-        }
+        for (int j = 0; j < 4; ++j) rgb8_to_doubles(row + size_t(x0 + j * n) * 3, L[j]);
         V8d pc, ps, d, psc;
         std::memcpy(&pc, q[0] + x0, sizeof(pc));
         std::memcpy(&ps, q[1] + x0, sizeof(ps));

@@ -342,6 +342,22 @@ std::atomic<int>& isa_choice() {
     return choice;
 }
 
+// The build of a kernel for the chosen instruction set (its three builds:
+// name_baseline, name_avx2, name_avx512; the last two on x86-64 alone).
+template <typename Fn>
+Fn by_isa(Fn baseline, Fn avx2, Fn avx512) {
+    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
+        case Isa::Avx512: return avx512;
+        case Isa::Avx2: return avx2;
+        default: return baseline;
+    }
+}
+#if defined(IBLBAKE_KERNEL_X86)
+#define IBLBAKE_BY_ISA(name) by_isa(kernel::name##_baseline, kernel::name##_avx2, kernel::name##_avx512)
+#else
+#define IBLBAKE_BY_ISA(name) kernel::name##_baseline
+#endif
+
 static_assert(offsetof(BinNode, px) == kernel::kNodePx * sizeof(float) &&
                   offsetof(BinNode, py) == kernel::kNodePy * sizeof(float) &&
                   offsetof(BinNode, pz) == kernel::kNodePz * sizeof(float) &&
@@ -355,35 +371,17 @@ static_assert(offsetof(BinNode, px) == kernel::kNodePx * sizeof(float) &&
               "the traversal and node-fields kernels read BinNode's fields at these offsets");
 
 kernel::SumsFn kernel_fn() {
-    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
-#if defined(IBLBAKE_KERNEL_X86)
-        case Isa::Avx512: return kernel::sums_avx512;
-        case Isa::Avx2: return kernel::sums_avx2;
-#endif
-        default: return kernel::sums_baseline;
-    }
+    return IBLBAKE_BY_ISA(sums);
 }
 
 }  // namespace
 
 kernel::MirrorRowFn kernel::mirror_row_fn() {
-    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
-#if defined(IBLBAKE_KERNEL_X86)
-        case Isa::Avx512: return kernel::mirror_row_avx512;
-        case Isa::Avx2: return kernel::mirror_row_avx2;
-#endif
-        default: return kernel::mirror_row_baseline;
-    }
+    return IBLBAKE_BY_ISA(mirror_row);
 }
 
 kernel::IrrHorizonFn kernel::irr_horizon_fn() {
-    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
-#if defined(IBLBAKE_KERNEL_X86)
-        case Isa::Avx512: return kernel::irr_horizon_avx512;
-        case Isa::Avx2: return kernel::irr_horizon_avx2;
-#endif
-        default: return kernel::irr_horizon_baseline;
-    }
+    return IBLBAKE_BY_ISA(irr_horizon);
 }
 
 std::atomic<bool>& traversal_lanes_on() {
@@ -409,43 +407,19 @@ kernel::NodeFieldsFn kernel::node_fields_fn() {
 }
 
 kernel::IrrSumFn kernel::irr_sum_fn() {
-    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
-#if defined(IBLBAKE_KERNEL_X86)
-        case Isa::Avx512: return kernel::irr_sum_avx512;
-        case Isa::Avx2: return kernel::irr_sum_avx2;
-#endif
-        default: return kernel::irr_sum_baseline;
-    }
+    return IBLBAKE_BY_ISA(irr_sum);
 }
 
 kernel::Sh9RowFn kernel::sh9_row_fn() {
-    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
-#if defined(IBLBAKE_KERNEL_X86)
-        case Isa::Avx512: return kernel::sh9_row_avx512;
-        case Isa::Avx2: return kernel::sh9_row_avx2;
-#endif
-        default: return kernel::sh9_row_baseline;
-    }
+    return IBLBAKE_BY_ISA(sh9_row);
 }
 
 kernel::RowPiecesFn kernel::row_pieces_fn() {
-    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
-#if defined(IBLBAKE_KERNEL_X86)
-        case Isa::Avx512: return kernel::row_pieces_avx512;
-        case Isa::Avx2: return kernel::row_pieces_avx2;
-#endif
-        default: return kernel::row_pieces_baseline;
-    }
+    return IBLBAKE_BY_ISA(row_pieces);
 }
 
 kernel::Sh9QuarterFn kernel::sh9_row_quarter_fn() {
-    switch (Isa(isa_choice().load(std::memory_order_relaxed))) {
-#if defined(IBLBAKE_KERNEL_X86)
-        case Isa::Avx512: return kernel::sh9_row_quarter_avx512;
-        case Isa::Avx2: return kernel::sh9_row_quarter_avx2;
-#endif
-        default: return kernel::sh9_row_quarter_baseline;
-    }
+    return IBLBAKE_BY_ISA(sh9_row_quarter);
 }
 
 const char* specular_kernel_isa() { return kIsaNames[isa_choice().load()]; }
