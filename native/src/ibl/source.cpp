@@ -744,6 +744,16 @@ bool larger(const HotStream::Entry& a, const HotStream::Entry& b) {
     if (a.m != b.m) return a.m > b.m;
     return a.y != b.y ? a.y < b.y : a.x < b.x;
 }
+
+// Cuts a row's candidates (at least `keep`) to its `keep` largest and
+// returns the smallest value kept. No texel whose largest channel is not
+// above that value can be hot: the row alone has `keep` texels at least as
+// bright, and the threshold is at least the keep-th largest value of all.
+float keep_largest(std::vector<HotStream::Entry>& f, size_t keep) {
+    std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(keep - 1), f.end(), larger);
+    f.resize(keep);
+    return f[keep - 1].m;
+}
 }  // namespace
 
 HotStream::HotStream(int width, int height, int max_hot)
@@ -762,17 +772,22 @@ void HotStream::begin_rows(int y0, int n) {
     // parallel, then merged: a stale floor only admits more candidates.
     y0_ = y0;
     floor_ = top_.size() >= keep_ ? top_.front().m : -1.0f;
+    row_floor_.store(floor_, std::memory_order_relaxed);
     found_.assign(size_t(n), {});
 }
 
 namespace {
 // The texels of a clean row whose largest channel is above `floor`, in
-// order. Blocks of 16 texels whose largest value is not above it hold none:
-// one vectorised max of the values' bits less the sign (clean values are
-// +0 or above, or -0: their magnitudes' bits order as they do), the texels
-// looked at one by one only where it is above.
-IBLBAKE_ROW_CLONES void hot_candidates(const float* row, int w, float floor, int y,
-                                       std::vector<HotStream::Entry>& out) {
+// order, at most 2 keep of them: each time there are that many, they are
+// cut to the keep largest and the floor raised to the smallest of those
+// (keep_largest; a row of a bright sky was 16K candidates, 400 KB, each
+// sorted at the end). Blocks of 16 texels whose largest value is not above
+// the floor hold none: one vectorised max of the values' bits less the sign
+// (clean values are +0 or above, or -0: their magnitudes' bits order as
+// they do), the texels looked at one by one only where it is above.
+// Returns the floor.
+IBLBAKE_ROW_CLONES float hot_candidates(const float* row, int w, float floor, int y, size_t keep,
+                                        std::vector<HotStream::Entry>& out) {
     constexpr int kBlock = 16;
     for (int x0 = 0; x0 < w; x0 += kBlock) {
         const int x1 = std::min(w, x0 + kBlock);
@@ -785,23 +800,29 @@ IBLBAKE_ROW_CLONES void hot_candidates(const float* row, int w, float floor, int
             const float m = max3(px);
             if (m > floor) out.push_back({m, x, y, {px[0], px[1], px[2]}});
         }
+        if (out.size() >= 2 * keep) floor = std::max(floor, keep_largest(out, keep));
     }
+    return floor;
 }
 }  // namespace
 
 void HotStream::add_row(int k, const float* row, float row_top) {
     std::vector<Entry>& f = found_[size_t(k)];
-    const float floor = floor_;
+    // The band's floor, raised by the rows done so far: any row's keep_-th
+    // largest value is one (keep_largest). Which rows have raised it when
+    // this one starts changes how many candidates it keeps, never which are
+    // hot.
+    float floor = std::max(floor_, row_floor_.load(std::memory_order_relaxed));
     if (!(row_top > floor)) return;
-    hot_candidates(row, w_, floor, y0_ + k, f);
+    floor = hot_candidates(row, w_, floor, y0_ + k, keep_, f);
     // Only a row's keep_ largest can be among the keep_ largest of all
     // (`larger` is a strict total order): the rest need not wait for the
-    // merge (a whole band of candidates was 24 bytes a texel, 50 MB for
-    // a 16K band of 128 rows, while the heap was filling).
-    if (f.size() > keep_) {
-        std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(keep_ - 1), f.end(), larger);
-        f.resize(keep_);
-        f.shrink_to_fit();
+    // merge.
+    if (f.size() < keep_) return;
+    floor = std::max(floor, keep_largest(f, keep_));
+    f.shrink_to_fit();
+    float seen = row_floor_.load(std::memory_order_relaxed);
+    while (seen < floor && !row_floor_.compare_exchange_weak(seen, floor, std::memory_order_relaxed)) {
     }
 }
 

@@ -7,6 +7,7 @@
 // to weighted points, SH projection. All directions returned are engine
 // space (SPEC.md section 2); the image is Blender lat-long (section 1).
 #pragma once
+#include <atomic>
 #include <array>
 #include <limits>
 #include <cstdint>
@@ -235,6 +236,7 @@ private:
     // floor when they began, and each row's candidates.
     int y0_ = 0;
     float floor_ = -1.0f;
+    std::atomic<float> row_floor_{-1.0f};  // floor_, raised by the rows added since (add_row)
     std::vector<std::vector<Entry>> found_;
 };
 
