@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "iblbake/ibl/bin_tree.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/math/cube.h"
 #include "iblbake/math/latlong.h"
@@ -364,4 +365,86 @@ TEST(Source, RemapIsIdentityOrAColumnShiftForRotationsAboutZ) {
     float mid[3];
     latlong_bilinear(src, {1, 0, 0}, mid);
     for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(zero.at(5, 7)[k], mid[k]);
+}
+
+// The SH9 the bake reports (project_sh9_bilinear) is that of SPEC's L, the
+// bilinear reconstruction, not of texel-constant radiance: against a
+// midpoint rule over (phi, s = sin lat), where dOmega = dphi ds, of
+// latlong_bilinear (SPEC section 1's lookup) times the basis, on a small
+// random world with one bright texel, where the two reconstructions' SH9
+// differ by far more than the rule's error. A BinRowStream over bands of
+// rows and build_bin_tree's reduction give the same bits, at any thread
+// count; a constant world gives the DC alone.
+TEST(Source, BilinearSh9IsTheIntegralOfSpecsL) {
+    const int w = 24, h = 12;
+    Image img = ref::random_smooth_source(w, h, 5);
+    img.at(7, 3)[0] = 40.0f;
+    img.at(19, 0)[2] = 25.0f;  // the top row: L constant from its centre to the pole
+    // Nodes in (phi, lat), dOmega = cos(lat) dlat dphi, the midpoint rule
+    // within each cell between texel centres (and each polar cap), where L
+    // is smooth: 128 x 128 nodes a cell.
+    const int m = 128;
+    std::vector<double> phis, lats, lat_w;
+    for (int x = 0; x < w; ++x)
+        for (int i = 0; i < m; ++i) phis.push_back(2.0 * kPi * (x + 0.5 + (i + 0.5) / m) / w);
+    const double row_h = kPi / h;
+    auto cell = [&](double lat0, double lat1) {
+        for (int j = 0; j < m; ++j) {
+            const double lat = lat0 + (lat1 - lat0) * (j + 0.5) / m;
+            lats.push_back(lat);
+            lat_w.push_back(std::cos(lat) * (lat1 - lat0) / m);
+        }
+    };
+    cell(-0.5 * kPi, -0.5 * kPi + 0.5 * row_h);
+    for (int y = 0; y + 1 < h; ++y) cell(-0.5 * kPi + (y + 0.5) * row_h, -0.5 * kPi + (y + 1.5) * row_h);
+    cell(0.5 * kPi - 0.5 * row_h, 0.5 * kPi);
+    std::array<Sh9, 3> want{};
+    for (size_t j = 0; j < lats.size(); ++j) {
+        const double s = std::sin(lats[j]), c = std::cos(lats[j]);
+        for (double phi : phis) {
+            const Vec3d d = blender_to_engine(Vec3d{c * std::cos(phi), c * std::sin(phi), s});
+            float L[3];
+            latlong_bilinear(img, d, L);
+            const Sh9 y = sh9_basis(d);
+            for (int ch = 0; ch < 3; ++ch)
+                for (int k = 0; k < 9; ++k) want[ch][k] += L[ch] * y[k] * lat_w[j];
+        }
+    }
+    const double d_phi = 2.0 * kPi / double(phis.size());
+    for (auto& ch : want)
+        for (double& v : ch) v *= d_phi;
+    const std::array<Sh9, 3> got = project_sh9_bilinear(img, 8), box = project_sh9(img);
+    double worst_box = 0.0;
+    for (int ch = 0; ch < 3; ++ch) {
+        const double scale = std::abs(want[ch][0]);
+        for (int k = 0; k < 9; ++k) {
+            EXPECT_NEAR(got[ch][k], want[ch][k], 1e-6 * scale) << ch << " " << k;
+            worst_box = std::max(worst_box, std::abs(box[ch][k] - want[ch][k]) / scale);
+        }
+    }
+    EXPECT_GT(worst_box, 1e-3) << "texel-constant radiance's SH9 would pass: the test does not tell them apart";
+    // Any bin width gives the same integral (to rounding).
+    for (int bw : {2, 4, 16, 32}) {
+        const std::array<Sh9, 3> other = project_sh9_bilinear(img, bw);
+        for (int ch = 0; ch < 3; ++ch)
+            for (int k = 0; k < 9; ++k) EXPECT_NEAR(other[ch][k], got[ch][k], 1e-12 * std::abs(got[ch][0])) << bw;
+    }
+    // The same bits from a stream of bands and from the tree's reduction.
+    for (int bw : {8, 16}) {
+        const std::array<Sh9, 3> whole = project_sh9_bilinear(img, bw);
+        BinRowStream stream(w, h, bw);
+        for (int y0 = 0; y0 < h; y0 += 4) stream.add_rows(img, std::max(0, y0 - stream.max_reach()), std::min(h - 1, y0 + 3));
+        ASSERT_EQ(stream.pending(), 0);
+        EXPECT_EQ(std::memcmp(stream.sh9().data(), whole.data(), sizeof(whole)), 0) << bw;
+        std::array<Sh9, 3> from_tree{};
+        BinTreeOptions options;
+        options.sh9 = &from_tree;
+        build_bin_tree(img, bw, nullptr, 0, options);
+        EXPECT_EQ(std::memcmp(from_tree.data(), whole.data(), sizeof(whole)), 0) << bw;
+    }
+    const std::array<Sh9, 3> flat = project_sh9_bilinear(ref::constant_source(64, 32, 2.0f), 16);
+    for (int ch = 0; ch < 3; ++ch) {
+        EXPECT_NEAR(flat[ch][0], 0.282095 * 2.0 * 4.0 * kPi, 1e-12);
+        for (int k = 1; k < 9; ++k) EXPECT_NEAR(flat[ch][k], 0.0, 1e-13) << k;
+    }
 }

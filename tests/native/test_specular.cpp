@@ -724,13 +724,14 @@ TEST(Specular, Sh9QuarterRowSumsEqualTheWholeTables) {
 // bins, to the bit, that the baseline gives, and those are the pieces'
 // products added row by row in double (a scalar sum here). Widths whose rows
 // (3 floats a texel) leave a tail past every block width, and one that
-// leaves none.
+// leaves none. The same for the SH9 made from those column sums.
 TEST(Specular, BinColumnSumsAreTheSameBitsOnEveryIsa) {
     for (const auto& [w, h, bw] : {std::array<int, 3>{300, 150, 64}, {1024, 512, 256}, {97, 48, 16}}) {
         Image src = ref::random_smooth_source(w, h, 23);
         src.at(w / 3, h / 4)[0] = 1e6f;
         ASSERT_TRUE(set_specular_kernel_isa("baseline"));
         const std::vector<Bin> base = reduce_to_bins(src, bw, bw / 2);
+        const std::array<Sh9, 3> base_sh9 = project_sh9_bilinear(src, bw);  // its band 2: kernel::sh9_band2_fn
         // Bin row 3's power from its pieces, one product after another.
         const std::vector<HatPiece> cols = hat_pieces_lon(w, bw), rows = hat_pieces_lat(h, bw / 2);
         double power[3] = {0, 0, 0};
@@ -753,6 +754,8 @@ TEST(Specular, BinColumnSumsAreTheSameBitsOnEveryIsa) {
             const std::vector<Bin> bins = reduce_to_bins(src, bw, bw / 2);
             ASSERT_EQ(bins.size(), base.size());
             EXPECT_EQ(std::memcmp(bins.data(), base.data(), bins.size() * sizeof(Bin)), 0) << isa << " " << w;
+            const std::array<Sh9, 3> sh9 = project_sh9_bilinear(src, bw);
+            EXPECT_EQ(std::memcmp(sh9.data(), base_sh9.data(), sizeof(sh9)), 0) << isa << " " << w;
         }
     }
     set_specular_kernel_isa("");  // back to the best

@@ -488,6 +488,7 @@ struct SourceBake {
     Image resampled;
     ImageView integrand;
     bool summary_holds = false;  // the summary describes the integrand
+    std::array<double, 3> channel_mean{};  // the integrand's texel-constant mean (HotRows): the tree's chroma floor
     // plan_levels() .. specular_levels().
     int finest_bins = 2;
     std::vector<LevelJob> jobs;
@@ -535,15 +536,22 @@ void aspect_warning(BakeResult& r, int w, int h) {
                              ", not 2:1: a lat-long spans 360 x 180 degrees, so its texels are stretched");
 }
 
-// The scan, the SH9 projection and the hot split's row sums in one pass over
-// the source; the last two are of the source as it is, used unless cleaning
-// or the overflow guard changes it (sanitize()).
+// The bins whose reduction gives the SH9 (project_sh9_bilinear): the
+// tree's finest, else the irradiance's own, else the finest the options
+// name. A streamed bake reduces the same ones (BandReducers).
+int sh9_bin_width(const SourceBake& b, bool need_tree) {
+    return !need_tree && b.want_irr ? b.o.irradiance_bins : b.finest_bins;
+}
+
+// The scan and the hot split's row sums in one pass over the source; the
+// row sums are of the source as it is, used unless cleaning or the overflow
+// guard changes it (sanitize()). The SH9 comes from the bins (bin_tree()).
 void scan(SourceBake& b) {
     BakeResult& r = b.r;
     option_warnings(r, b.o);
     aspect_warning(r, b.view.width, b.view.height);
     b.report("reading source", 0.0);
-    b.summary = summarize_source(b.view);
+    b.summary = summarize_source(b.view, /*sh9=*/false);
     b.scanned = b.view;
     r.bad_input = b.summary.scan.bad;
     check_strict(r, b.o);
@@ -628,7 +636,8 @@ void set_sh9(BakeResult& r, const std::array<Sh9, 3>& sh9) {
     for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
 }
 
-// The grid the integrals run on, and the SH9 of the radiance on it.
+// The grid the integrals run on (the SH9 of the radiance on it comes with
+// the bins: bin_tree()).
 void sh9(SourceBake& b) {
     BakeResult& r = b.r;
     const ImageView& source = b.source;
@@ -644,7 +653,6 @@ void sh9(SourceBake& b) {
     // The summary describes the integrand when that is the source unchanged
     // or cleaned (its bad rows summarized again in sanitize()).
     b.summary_holds = b.scale_exp == 0 && same_pixels(b.integrand, b.summary_refreshed ? source : b.scanned);
-    set_sh9(r, b.summary_holds ? b.summary.sh9 : project_sh9(b.integrand));
     b.clock.done("sh9");
 }
 
@@ -692,14 +700,25 @@ void hot_split(SourceBake& b) {
 
 // The hierarchical specular's bin tree, built first: its coarser exact bins
 // are the irradiance's too, which then needs no pass of its own.
+// The SH9 (SPEC's bilinear L) comes from the tree's reduction, or, without
+// a tree, from the same reduction at sh9_bin_width()'s bins: the bins a
+// streamed bake reduces (stream_front), so both give the same bits.
 void bin_tree(SourceBake& b) {
     const bool need_tree = !b.fis && b.r1 > 0.0;
     b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
-    if (!need_tree) return;
+    if (!need_tree) {
+        set_sh9(b.r, project_sh9_bilinear(b.integrand, sh9_bin_width(b, false)));
+        b.clock.done("sh9");
+        return;
+    }
     b.report("specular", b.done);
     b.r.specular_base_face = b.finest_bins;
     BinTreeOptions tree_options;
-    tree_options.channel_mean = b.r.mean_radiance.data();  // the integrand's: the chroma scores' floor
+    // The integrand's mean per channel: the chroma scores' floor.
+    b.channel_mean = channel_means(b.summary_holds ? b.summary.hot : hot_rows(b.integrand));
+    tree_options.channel_mean = b.channel_mean.data();
+    std::array<Sh9, 3> sh9{};
+    tree_options.sh9 = &sh9;
     // A source this bake owns that nothing reads after the tree (the r = 0
     // levels are made, no export keeps it, the irradiance is the tree's
     // bins') gives its rows back as the tree is done with them, before
@@ -714,6 +733,7 @@ void bin_tree(SourceBake& b) {
     }
     b.tree = build_bin_tree(b.integrand, b.finest_bins, b.irr_from_tree ? &b.irr_bins : nullptr, b.o.irradiance_bins,
                             tree_options);
+    set_sh9(b.r, sh9);
     b.clock.done("bin_tree");
 }
 
@@ -1080,12 +1100,14 @@ private:
 // one at the irradiance's own bins when the tree's are too coarse for it)
 // and mip 0's lookups (MirrorStream).
 struct BandReducers {
-    BandReducers(SourceBake& b, int w, int h) : sums(w, h) {
+    BandReducers(SourceBake& b, int w, int h) : sums(w, h, /*sh9=*/false) {
         if (b.want_irr) hots = std::make_unique<HotStream>(w, h, b.o.max_hot);
         need_tree = b.r1 > 0.0;
         b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
         if (need_tree) bins = std::make_unique<BinRowStream>(w, h, b.finest_bins);
         if (b.want_irr && !b.irr_from_tree) irr_bins = std::make_unique<BinRowStream>(w, h, b.o.irradiance_bins);
+        // The SH9 from the first of these there is (sh9_bin_width()), else bins of its own.
+        if (!bins && !irr_bins) sh9_bins = std::make_unique<BinRowStream>(w, h, sh9_bin_width(b, need_tree));
         size_t mirror_jobs = 0;
         for (const LevelJob& job : b.jobs) mirror_jobs += job.roughness == 0.0;
         mirrors.reserve(mirror_jobs);  // the streams hold references
@@ -1098,7 +1120,7 @@ struct BandReducers {
     // Rows above a band the bin rows still need (their reach).
     int reach() const {
         int r = 1;
-        for (const auto* s : {bins.get(), irr_bins.get()})
+        for (const auto* s : {bins.get(), irr_bins.get(), sh9_bins.get()})
             if (s) r = std::max(r, s->max_reach());
         return r;
     }
@@ -1106,21 +1128,24 @@ struct BandReducers {
         sums.add_rows(rows, y0, n, hots.get(), ring.halves());  // each row to hots too, while in the cache
         ring.halves_done();
         const ImageView v = ring.view();
-        for (auto* s : {bins.get(), irr_bins.get()})
+        for (auto* s : {bins.get(), irr_bins.get(), sh9_bins.get()})
             if (s) s->add_rows(v, ring.have0(), ring.have1());
         for (auto& m : mirror_streams) m->add_rows(v, ring.have0(), ring.have1());
     }
     void check_finished() const {
-        for (const auto* s : {bins.get(), irr_bins.get()})
+        for (const auto* s : {bins.get(), irr_bins.get(), sh9_bins.get()})
             if (s && s->pending() != 0) throw std::logic_error("streamed bake: bin rows left unreduced");
         for (const auto& m : mirror_streams)
             if (m->pending() != 0) throw std::logic_error("streamed bake: mip 0 texels left unread");
     }
 
+    // The SH9 of SPEC's L (project_sh9_bilinear at sh9_bin_width()).
+    std::array<Sh9, 3> sh9() const { return (bins ? bins : irr_bins ? irr_bins : sh9_bins)->sh9(); }
+
     SummaryStream sums;
     std::unique_ptr<HotStream> hots;
     bool need_tree = false;
-    std::unique_ptr<BinRowStream> bins, irr_bins;
+    std::unique_ptr<BinRowStream> bins, irr_bins, sh9_bins;
     std::vector<Cubemap> mirrors;
     std::vector<std::unique_ptr<MirrorStream>> mirror_streams;
 };
@@ -1171,7 +1196,7 @@ bool stream_front(SourceBake& b, BandSource& src) {
     b.summary_holds = true;
     r.integration_width = w;
     r.integration_height = h;
-    set_sh9(r, b.summary.sh9);
+    set_sh9(r, red.sh9());
     // mirror_levels()
     size_t m = 0;
     for (const LevelJob& job : b.jobs) {
@@ -1188,8 +1213,9 @@ bool stream_front(SourceBake& b, BandSource& src) {
     b.report("specular", b.done);
     r.specular_base_face = b.finest_bins;
     BinTreeOptions tree_options;
-    tree_options.channel_mean = r.mean_radiance.data();
-    b.tree = red.bins->finish(r.mean_radiance.data(), b.irr_from_tree ? &b.irr_bins : nullptr,
+    b.channel_mean = channel_means(b.summary.hot);
+    tree_options.channel_mean = b.channel_mean.data();
+    b.tree = red.bins->finish(b.channel_mean.data(), b.irr_from_tree ? &b.irr_bins : nullptr,
                               b.o.irradiance_bins, tree_options);
     b.clock.done("bin_tree");
     return true;

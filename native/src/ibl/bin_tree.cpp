@@ -419,15 +419,18 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
             first[size_t(br)] = std::min(first[size_t(br) + 1], red.source_rows(br).first);
         level0_done = [&](int br) { options.source_done(first[size_t(br)]); };
     }
+    std::vector<std::array<Sh9, 3>> sh9_rows(options.sh9 ? size_t(w / 2) : 0);
     BinTree tree = build_from_rows(
-        w, [&red](int br, Bin* out) { red.row(br, out); }, mean, keep, keep_w, options, level0_done);
+        w, [&](int br, Bin* out) { red.row(br, out, options.sh9 ? &sh9_rows[size_t(br)] : nullptr); }, mean, keep,
+        keep_w, options, level0_done);
     if (options.source_done) options.source_done(latlong.height);  // (at w = 2 the only call)
+    if (options.sh9) *options.sh9 = sum_sh9_rows(sh9_rows);
     return tree;
 }
 
 BinRowStream::BinRowStream(int img_w, int img_h, int finest_w)
     : w_(std::max(2, finest_w)), red_(ImageView(nullptr, img_w, img_h), w_, w_ / 2),
-      bins_(size_t(w_) * (w_ / 2)), done_(w_ / 2, 0) {}
+      bins_(size_t(w_) * (w_ / 2)), sh9_rows_(size_t(w_ / 2)), done_(w_ / 2, 0) {}
 
 void BinRowStream::add_rows(ImageView img, int y0, int y1) {
     // Bin rows whose every source row is among y0..y1, not yet reduced.
@@ -439,7 +442,7 @@ void BinRowStream::add_rows(ImageView img, int y0, int y1) {
     }
     parallel_for(0, int(ready.size()), [&](int k) {
         const int br = ready[k];
-        red_.row(img, br, &bins_[size_t(br) * w_]);
+        red_.row(img, br, &bins_[size_t(br) * w_], &sh9_rows_[size_t(br)]);
         done_[br] = 1;
     });
 }
@@ -460,6 +463,11 @@ int BinRowStream::pending() const {
 }
 
 std::pair<int, int> BinRowStream::source_rows(int br) const { return red_.source_rows(br); }
+
+std::array<Sh9, 3> BinRowStream::sh9() const {
+    if (pending() != 0) throw std::logic_error("BinRowStream::sh9: bin rows whose source rows never came");
+    return sum_sh9_rows(sh9_rows_);
+}
 
 std::vector<Bin> BinRowStream::take_bins() {
     if (pending() != 0) throw std::logic_error("BinRowStream::take_bins: bin rows whose source rows never came");

@@ -200,6 +200,65 @@ __attribute__((optimize("fp-contract=off"))) size_t IBLBAKE_ROW_KERNEL(row_piece
     return i0;
 }
 
+// A bin row's band-2 SH9 sums from its column sums (source.cpp's
+// BinReduction::row): per channel c, over the values i = 3 x + c,
+// t[c] = {sum cs2, sum q, sum q h2, sum q h3, sum cc1 h0, sum cc1 h1}, q =
+// cs0 - cs2, h[0..3] column x's full-hat longitude integrals (sh9_hat_tables).
+// Value i goes to lane i mod 24 (three vectors of 8 doubles per sum, each
+// lane one channel's), the lanes added in order at the end; no fused
+// multiply-add: every instruction set gives the same bits.
+__attribute__((optimize("fp-contract=off"))) void IBLBAKE_ROW_KERNEL(sh9_band2)(const double* cs0, const double* cs2,
+                                                                                const double* cc1,
+                                                                                const double* const* h, size_t width,
+                                                                                double (*t)[6]) {
+    typedef Rgb8d V8d;
+    typedef long long V8l __attribute__((vector_size(64)));
+    V8d acc[6][3];
+    for (auto& a : acc)
+        for (V8d& v : a) v = V8d{};
+    auto add = [&](int b, const V8d* e, size_t i) {
+        V8d a0, a2, c1;
+        std::memcpy(&a0, cs0 + i, sizeof(a0));
+        std::memcpy(&a2, cs2 + i, sizeof(a2));
+        std::memcpy(&c1, cc1 + i, sizeof(c1));
+        const V8d q = a0 - a2;
+        acc[0][b] += a2;
+        acc[1][b] += q;
+        acc[2][b] += q * e[2];
+        acc[3][b] += q * e[3];
+        acc[4][b] += c1 * e[0];
+        acc[5][b] += c1 * e[1];
+    };
+    const size_t whole = width / 8 * 8;
+    for (size_t x0 = 0; x0 < whole; x0 += 8) {
+        V8d hv[4], e[4];
+        for (int k = 0; k < 4; ++k) std::memcpy(&hv[k], h[k] + x0, sizeof(hv[k]));
+        // Each column's table values beside its three channels' values.
+        for (int k = 0; k < 4; ++k) e[k] = __builtin_shuffle(hv[k], V8l{0, 0, 0, 1, 1, 1, 2, 2});
+        add(0, e, 3 * x0);
+        for (int k = 0; k < 4; ++k) e[k] = __builtin_shuffle(hv[k], V8l{2, 3, 3, 3, 4, 4, 4, 5});
+        add(1, e, 3 * x0 + 8);
+        for (int k = 0; k < 4; ++k) e[k] = __builtin_shuffle(hv[k], V8l{5, 5, 6, 6, 6, 7, 7, 7});
+        add(2, e, 3 * x0 + 16);
+    }
+    for (size_t i = 3 * whole; i < 3 * width; ++i) {
+        const size_t lane = i % 24, b = lane / 8, l = lane % 8, x = i / 3;
+        const double q = cs0[i] - cs2[i];
+        acc[0][b][l] += cs2[i];
+        acc[1][b][l] += q;
+        acc[2][b][l] += q * h[2][x];
+        acc[3][b][l] += q * h[3][x];
+        acc[4][b][l] += cc1[i] * h[0][x];
+        acc[5][b][l] += cc1[i] * h[1][x];
+    }
+    for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < 6; ++k) {
+            double s = 0.0;
+            for (int lane = c; lane < 24; lane += 3) s += acc[k][lane / 8][lane % 8];
+            t[c][k] = s;
+        }
+}
+
 void IBLBAKE_ROW_KERNEL(mirror_row)(const double* frame, double b, int n, int w, int h, double* fx, double* fy) {
     constexpr double kPiD = 3.14159265358979323846;
     for (int i = 0; i < n; ++i) {

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <utility>
 
 
@@ -246,7 +247,7 @@ namespace {
 // Row y of hot_rows (float lanes, double across them), into `out`.
 IBLBAKE_ROW_CLONES void hot_row(const float* row, int w, int y, const LatLongTables& tab, HotRows& out) {
     constexpr int kLanes = 16;
-    float sm[kLanes] = {}, sp[kLanes] = {}, top[kLanes] = {};
+    float sm[kLanes] = {}, sp[kLanes] = {}, top[kLanes] = {}, sc[3][kLanes] = {};
     const int whole = w / kLanes * kLanes;
     for (int x0 = 0; x0 < whole; x0 += kLanes)
         for (int l = 0; l < kLanes; ++l) {
@@ -255,23 +256,27 @@ IBLBAKE_ROW_CLONES void hot_row(const float* row, int w, int y, const LatLongTab
             sm[l] += m;
             sp[l] += px[0] + px[1] + px[2];
             top[l] = std::max(top[l], m);
+            for (int c = 0; c < 3; ++c) sc[c][l] += px[c];
         }
     for (int x = whole; x < w; ++x) {
         const float* px = row + size_t(x) * 3;
         sm[0] += max3(px);
         sp[0] += px[0] + px[1] + px[2];
         top[0] = std::max(top[0], max3(px));
+        for (int c = 0; c < 3; ++c) sc[c][0] += px[c];
     }
-    double s = 0.0, p = 0.0;
+    double s = 0.0, p = 0.0, ch[3] = {0.0, 0.0, 0.0};
     float t = 0.0f;
     for (int l = 0; l < kLanes; ++l) {
         s += sm[l];
         p += sp[l];
         t = std::max(t, top[l]);
+        for (int c = 0; c < 3; ++c) ch[c] += sc[c][l];
     }
     out.mean[y] = s * tab.omega[y];
     out.power[y] = p * tab.omega[y];
     out.top[y] = t;
+    for (int c = 0; c < 3; ++c) out.channel[size_t(3) * y + c] = ch[c] * tab.omega[y];
 }
 
 HotRows sized_hot_rows(int h) {
@@ -279,10 +284,20 @@ HotRows sized_hot_rows(int h) {
     r.mean.resize(h);
     r.power.resize(h);
     r.top.resize(h);
+    r.channel.resize(size_t(3) * h);
     return r;
 }
 
 }  // namespace
+
+std::array<double, 3> channel_means(const HotRows& rows) {
+    std::array<double, 3> mean{};
+    const size_t h = rows.channel.size() / 3;
+    for (size_t y = 0; y < h; ++y)
+        for (int c = 0; c < 3; ++c) mean[c] += rows.channel[3 * y + c];
+    for (double& m : mean) m /= 4.0 * kPi;
+    return mean;
+}
 
 HotRows hot_rows(ImageView img) {
     const LatLongTables tab(img.width, img.height);
@@ -413,6 +428,7 @@ BinReduction::BinReduction(ImageView img, int bw, int bh)
     first_.assign(bh_ + 1, rows_.size());
     for (size_t k = rows_.size(); k-- > 0;) first_[rows_[k].bin] = k;
     for (int r = bh_; r-- > 0;) first_[r] = std::min(first_[r], first_[r + 1]);
+    p0_ = kernel::sh9_hat_tables(img.width, hat_);
 }
 
 namespace {
@@ -478,7 +494,33 @@ void add_row_pieces(const float* const* src, const double* w, size_t pieces, siz
 
 }  // namespace
 
-void BinReduction::row(int br, Bin* out) const { row(img_, br, out); }
+void BinReduction::row(int br, Bin* out, std::array<Sh9, 3>* sh9) const { row(img_, br, out, sh9); }
+
+namespace {
+
+// A bin row's SH9 (BinReduction::row): its bins' power and vectors (the
+// integrals of L and L w, engine space) and the band-2 sums t of
+// kernel::sh9_band2_fn, with x = c cos phi, y = s, z = -c sin phi as in
+// sh9_rect_integral: xx = sum q pcc, pcc = p0 / 2 + h2; zz = sum q (p0 - pcc);
+// yy = p0 sum cs2; xy = sum cc1 h0; yz = -sum cc1 h1; xz = -sum q h3.
+std::array<Sh9, 3> bin_row_sh9(const Bin* bins, int bw, const double (*t)[6], double p0) {
+    std::array<Sh9, 3> out;
+    for (int c = 0; c < 3; ++c) {
+        double P = 0.0, V[3] = {0.0, 0.0, 0.0};
+        for (int b = 0; b < bw; ++b) {
+            P += bins[b].power[c];
+            for (int k = 0; k < 3; ++k) V[k] += bins[b].vector[c][k];
+        }
+        const double xx = 0.5 * p0 * t[c][1] + t[c][2], zz = p0 * t[c][1] - xx, yy = p0 * t[c][0];
+        const double xy = t[c][4], yz = -t[c][5], xz = -t[c][3];
+        out[c] = {0.282095 * P,           0.488603 * V[1], 0.488603 * V[2],
+                  0.488603 * V[0],        1.092548 * xy,   1.092548 * yz,
+                  0.315392 * (3.0 * zz - P), 1.092548 * xz, 0.546274 * (xx - yy)};
+    }
+    return out;
+}
+
+}  // namespace
 
 std::pair<int, int> BinReduction::source_rows(int br) const {
     int first = std::numeric_limits<int>::max(), last = -1;  // no piece: every band serves
@@ -489,7 +531,7 @@ std::pair<int, int> BinReduction::source_rows(int br) const {
     return {first, last};
 }
 
-void BinReduction::row(ImageView img, int br, Bin* out) const {
+void BinReduction::row(ImageView img, int br, Bin* out, std::array<Sh9, 3>* sh9) const {
     const size_t n = size_t(img_.width) * 3;
     thread_local std::vector<double> col;
     col.resize(5 * n);
@@ -515,6 +557,24 @@ void BinReduction::row(ImageView img, int br, Bin* out) const {
         const size_t i = size_t(cp.texel) * 3;
         add_hat_product(out[cp.bin], one, cs0 + i, cs1 + i, cs2 + i, cc0 + i, cc1 + i, cp.w);
     }
+    if (sh9) {
+        const double* h[4] = {hat_[0].data(), hat_[1].data(), hat_[2].data(), hat_[3].data()};
+        double t[3][6];
+        kernel::sh9_band2_fn()(cs0, cs2, cc1, h, size_t(img_.width), t);
+        *sh9 = bin_row_sh9(out, bw_, t, p0_);
+    }
+}
+
+std::array<Sh9, 3> project_sh9_bilinear(ImageView img, int bw) {
+    const int w = std::max(2, bw);
+    const BinReduction red(img, w, w / 2);
+    std::vector<std::array<Sh9, 3>> rows(size_t(red.height()));
+    parallel_for(0, red.height(), [&](int br) {
+        thread_local std::vector<Bin> bins;
+        bins.resize(size_t(red.width()));
+        red.row(br, bins.data(), &rows[size_t(br)]);
+    });
+    return sum_sh9_rows(rows);
 }
 
 std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh) {
@@ -572,10 +632,7 @@ std::vector<Bin> coarsen_bins(const std::vector<Bin>& bins, int bw, int bh) {
     return out;
 }
 
-namespace {
-
-// The sum of per-row projections, in row order.
-std::array<Sh9, 3> sh9_total(const std::vector<std::array<Sh9, 3>>& rows) {
+std::array<Sh9, 3> sum_sh9_rows(const std::vector<std::array<Sh9, 3>>& rows) {
     std::array<Sh9, 3> sum{};
     for (const auto& r : rows)
         for (int c = 0; c < 3; ++c)
@@ -583,7 +640,23 @@ std::array<Sh9, 3> sh9_total(const std::vector<std::array<Sh9, 3>>& rows) {
     return sum;
 }
 
-}  // namespace
+double kernel::sh9_hat_tables(int w, std::vector<double> (&h)[4]) {
+    const double p0 = 2.0 * kPi / w;
+    auto sinc2 = [](double t) {
+        const double s = std::sin(t) / t;
+        return s * s;
+    };
+    const double k1 = p0 * sinc2(0.5 * p0), k2 = 0.5 * p0 * sinc2(p0);
+    for (auto& v : h) v.resize(size_t(w));
+    for (int x = 0; x < w; ++x) {
+        const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
+        h[0][x] = k1 * std::cos(phi);
+        h[1][x] = k1 * std::sin(phi);
+        h[2][x] = k2 * std::cos(2.0 * phi);
+        h[3][x] = k2 * std::sin(2.0 * phi);
+    }
+    return p0;
+}
 
 double kernel::sh9_quarter_tables(int w, std::vector<double> (&q)[4]) {
     // lon_integrals' cos, sin, cos^2 - p0 / 2 and sin cos integrals in
@@ -637,7 +710,7 @@ public:
         for (int c = 0; c < 3; ++c)
             rows_[y][c] = sh9_rect_integral(LonIntegrals{t[c][0], t[c][1], t[c][2], t[c][3], t[c][4], t[c][5]}, tab_.lat[y]);
     }
-    std::array<Sh9, 3> total() const { return sh9_total(rows_); }
+    std::array<Sh9, 3> total() const { return sum_sh9_rows(rows_); }
     std::vector<std::array<Sh9, 3>> take_rows() { return std::move(rows_); }
 
 private:
@@ -661,22 +734,25 @@ std::array<Sh9, 3> project_sh9(ImageView img) {
     return sh.total();
 }
 
-SourceSummary summarize_source(ImageView img) {
+SourceSummary summarize_source(ImageView img, bool sh9) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
-    Sh9Rows sh(tab, w, h);
+    std::optional<Sh9Rows> sh;
+    if (sh9) sh.emplace(tab, w, h);
     SourceSummary out;
     out.hot = sized_hot_rows(h);
     std::vector<SourceScan> scans(h);
     parallel_for(0, h, [&](int y) {
         const float* row = img.at(0, y);
         scan_row(row, w, scans[y]);
-        sh.row(row, y);
+        if (sh) sh->row(row, y);
         hot_row(row, w, y, tab, out.hot);
     });
     out.scan = combine_scans(scans);
-    out.sh9 = sh.total();
-    out.sh9_rows = sh.take_rows();
+    if (sh) {
+        out.sh9 = sh->total();
+        out.sh9_rows = sh->take_rows();
+    }
     return out;
 }
 
@@ -684,28 +760,29 @@ void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int
     if (rows.empty()) return;
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
+    for (int y : rows) hot_row(img.at(0, y), w, y, tab, s.hot);
+    if (s.sh9_rows.empty()) return;  // summarized without SH9
     Sh9Rows sh(tab, w, h);
-    for (int y : rows) {
-        sh.row(img.at(0, y), y);
-        hot_row(img.at(0, y), w, y, tab, s.hot);
-    }
+    for (int y : rows) sh.row(img.at(0, y), y);
     std::vector<std::array<Sh9, 3>> fresh = sh.take_rows();
     for (int y : rows) s.sh9_rows[y] = fresh[y];
-    s.sh9 = sh9_total(s.sh9_rows);
+    s.sh9 = sum_sh9_rows(s.sh9_rows);
 }
 
 struct SummaryStream::Impl {
     int w, h;
     LatLongTables tab;
-    Sh9Rows sh;
+    std::optional<Sh9Rows> sh;
     HotRows hot;
     std::vector<SourceScan> scans;
-    Impl(int width, int height)
-        : w(width), h(height), tab(width, height), sh(tab, width, height), hot(sized_hot_rows(height)),
-          scans(height) {}
+    Impl(int width, int height, bool sh9)
+        : w(width), h(height), tab(width, height), hot(sized_hot_rows(height)), scans(height) {
+        if (sh9) sh.emplace(tab, width, height);
+    }
 };
 
-SummaryStream::SummaryStream(int width, int height) : impl_(std::make_unique<Impl>(width, height)) {}
+SummaryStream::SummaryStream(int width, int height, bool sh9)
+    : impl_(std::make_unique<Impl>(width, height, sh9)) {}
 SummaryStream::~SummaryStream() = default;
 
 void SummaryStream::add_rows(float* const* rows, int y0, int n, HotStream* hots, const uint16_t* halves) {
@@ -720,7 +797,7 @@ void SummaryStream::add_rows(float* const* rows, int y0, int n, HotStream* hots,
         s = SourceScan{};
         scan_row(row, m.w, s);
         if (s.bad.pixels) clean_values(row, row, size_t(m.w) * 3);
-        m.sh.row(row, y);
+        if (m.sh) m.sh->row(row, y);
         hot_row(row, m.w, y, m.tab, m.hot);
         if (hots) hots->add_row(k, row, m.hot.top[y]);
     });
@@ -731,8 +808,10 @@ SourceSummary SummaryStream::finish() {
     Impl& m = *impl_;
     SourceSummary out;
     out.scan = combine_scans(m.scans);
-    out.sh9 = m.sh.total();
-    out.sh9_rows = m.sh.take_rows();
+    if (m.sh) {
+        out.sh9 = m.sh->total();
+        out.sh9_rows = m.sh->take_rows();
+    }
     out.hot = std::move(m.hot);
     return out;
 }

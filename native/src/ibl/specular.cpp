@@ -418,6 +418,10 @@ kernel::RowPiecesFn kernel::row_pieces_fn() {
     return IBLBAKE_BY_ISA(row_pieces);
 }
 
+kernel::Sh9Band2Fn kernel::sh9_band2_fn() {
+    return IBLBAKE_BY_ISA(sh9_band2);
+}
+
 kernel::Sh9QuarterFn kernel::sh9_row_quarter_fn() {
     return IBLBAKE_BY_ISA(sh9_row_quarter);
 }

@@ -65,6 +65,26 @@ size_t row_pieces_avx2(const float* const* src, const double* w, size_t pieces, 
 size_t row_pieces_avx512(const float* const* src, const double* w, size_t pieces, size_t n, double* const* out);
 RowPiecesFn row_pieces_fn();
 
+// A bin row's band-2 SH9 sums from its five column sums (row_kernels_impl.h):
+// per channel {sum cs2, sum q, sum q h2, sum q h3, sum cc1 h0, sum cc1 h1},
+// q = cs0 - cs2, h = sh9_hat_tables' four tables of `width` columns. The
+// same bits for every instruction set (no FMA).
+using Sh9Band2Fn = void (*)(const double* cs0, const double* cs2, const double* cc1, const double* const* h,
+                            size_t width, double (*t)[6]);
+void sh9_band2_baseline(const double* cs0, const double* cs2, const double* cc1, const double* const* h, size_t width,
+                        double (*t)[6]);
+void sh9_band2_avx2(const double* cs0, const double* cs2, const double* cc1, const double* const* h, size_t width,
+                    double (*t)[6]);
+void sh9_band2_avx512(const double* cs0, const double* cs2, const double* cc1, const double* const* h, size_t width,
+                      double (*t)[6]);
+Sh9Band2Fn sh9_band2_fn();
+// Column x's longitude hat (SPEC's bilinear L: a tent of half-width p0 =
+// 2 pi / width about phi_x) integrated against cos phi, sin phi,
+// cos phi sin phi and cos^2 phi - 1/2, in closed form: the tent's Fourier
+// transform, p0 sinc^2(k p0 / 2) at frequency k, gives h[0..3] = p0 k1
+// (cos, sin) phi_x and p0 k2 / 2 (cos, sin) 2 phi_x; returns p0 (source.cpp).
+double sh9_hat_tables(int width, std::vector<double> (&h)[4]);
+
 // The quarter tables of a width divisible by 4 (q[k] resized to width / 4);
 // returns p0 (source.cpp).
 double sh9_quarter_tables(int width, std::vector<double> (&q)[4]);

@@ -103,6 +103,9 @@ struct BinTreeOptions {
     // so that a caller that owns the source can let those rows go
     // (RowRelease). The tree is the same either way.
     std::function<void(int)> source_done;
+    // build_bin_tree: when set, receives project_sh9_bilinear(latlong,
+    // finest_w) to the bit, from the reduction the tree is built from.
+    std::array<Sh9, 3>* sh9 = nullptr;
 };
 
 // The colour test of one exact bin (above) and, for a bin that passes, its
@@ -146,11 +149,14 @@ public:
     // Level 0's exact bins alone, row-major (no tree): what
     // reduce_to_bins(whole image, finest_w, finest_w / 2) gives, to the bit.
     std::vector<Bin> take_bins();
+    // project_sh9_bilinear(whole image, finest_w) to the bit (every bin row reduced).
+    std::array<Sh9, 3> sh9() const;
 
 private:
     int w_;
     BinReduction red_;
     std::vector<Bin> bins_;
+    std::vector<std::array<Sh9, 3>> sh9_rows_;
     std::vector<char> done_;
 };
 

@@ -104,7 +104,11 @@ struct HotSplit {
 struct HotRows {
     std::vector<double> mean, power;
     std::vector<float> top;
+    std::vector<double> channel;  // row y's power per channel at 3 y + c (float sums along the row)
 };
+// Per channel, the mean radiance of texel-constant L from the hot rows'
+// channel sums (rows added in order): the bin tree's chroma floor.
+std::array<double, 3> channel_means(const HotRows& rows);
 HotRows hot_rows(ImageView img);
 // `rows`, when given, must be hot_rows(img) (computed in another pass).
 HotSplit split_hot(ImageView img, double relative_threshold, int max_hot, const HotRows* rows = nullptr);
@@ -131,10 +135,15 @@ public:
     BinReduction(ImageView img, int bw, int bh);
     int width() const { return bw_; }
     int height() const { return bh_; }
-    void row(int br, Bin* out) const;  // bins (0..bw-1, br), overwritten
+    // Bins (0..bw-1, br), overwritten; with sh9, also the bin row's part of
+    // the SH9 of SPEC's bilinear L (project_sh9_bilinear): bands 0 and 1 the
+    // sums of its bins' power and vectors, band 2 from the column sums the
+    // bins are made of (kernel::sh9_band2_fn, the longitude hats'
+    // integrals in closed form).
+    void row(int br, Bin* out, std::array<Sh9, 3>* sh9 = nullptr) const;
     // The same from another image of the same size (only the rows
     // source_rows(br) are read: a view of a band of rows serves).
-    void row(ImageView img, int br, Bin* out) const;
+    void row(ImageView img, int br, Bin* out, std::array<Sh9, 3>* sh9 = nullptr) const;
     std::pair<int, int> source_rows(int br) const;  // first and last row bin row br reads
 
 private:
@@ -142,6 +151,8 @@ private:
     int bw_, bh_;
     std::vector<HatPiece> cols_, rows_;
     std::vector<size_t> first_;  // first row piece of each bin row
+    std::vector<double> hat_[4];  // kernel::sh9_hat_tables
+    double p0_ = 0.0;
 };
 // o += b, every integral.
 void add_bins(Bin& o, const Bin& b);
@@ -156,6 +167,16 @@ void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, co
 // Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5):
 // every texel's exact basis integral (texel-constant radiance), in double.
 std::array<Sh9, 3> project_sh9(ImageView img);
+// The same of SPEC's L, the bilinear reconstruction: what the bake reports.
+// Summed bin row by bin row of the bins BinReduction(img, w, w / 2) makes,
+// w = max(2, bw), in row order; a BinRowStream of that width over the same
+// rows gives the same bits (its sh9()), and so does build_bin_tree's
+// (BinTreeOptions::sh9). Exact for any L whose SH9 is band-limited to
+// band 2 in each row's bilinear pieces; it differs from project_sh9 by
+// the difference of the two reconstructions.
+std::array<Sh9, 3> project_sh9_bilinear(ImageView img, int bw);
+// The sum of per-row projections, in row order.
+std::array<Sh9, 3> sum_sh9_rows(const std::vector<std::array<Sh9, 3>>& rows);
 
 // scan_source, project_sh9 and hot_rows in one pass over the rows: each row
 // is read from memory once and used three times while in cache (the three
@@ -169,7 +190,9 @@ struct SourceSummary {
     HotRows hot;
     std::vector<std::array<Sh9, 3>> sh9_rows;  // each row's projection; sh9 is their sum in row order
 };
-SourceSummary summarize_source(ImageView img);
+// sh9 false: sh9 left 0 and sh9_rows empty (the bake takes the bilinear
+// SH9 from the bins), the rest the same.
+SourceSummary summarize_source(ImageView img, bool sh9 = true);
 // After the rows `rows` of the source changed (cleaned), with every other
 // row as summarized: those rows' SH9 and hot-row sums again from `img`, and
 // the totals. Equal to the bit to project_sh9(img) and hot_rows(img).
@@ -185,7 +208,7 @@ void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int
 // scan() and sanitize() when the overflow guard is off.
 class SummaryStream {
 public:
-    SummaryStream(int width, int height);
+    SummaryStream(int width, int height, bool sh9 = true);  // sh9: as summarize_source's
     ~SummaryStream();
     SummaryStream(const SummaryStream&) = delete;
     SummaryStream& operator=(const SummaryStream&) = delete;
