@@ -144,6 +144,10 @@ TEST(BinRowStream, BandsEqualTheWholeImage) {
         chroma += whole.chroma_count();
         BinRowStream probe(img.width, img.height, finest);
         const int reach = probe.max_reach();
+        // What the streamed bake sizes its bands by before the streams exist.
+        EXPECT_EQ(BinRowStream::reach(img.height, finest), reach);
+        for (int h : {1, 2, 3, 7, 8192})
+            EXPECT_EQ(BinRowStream::reach(h, finest), BinRowStream(2 * h, h, finest).max_reach()) << h;
         for (int band : {reach, reach + 3, 2 * reach + 5, img.height}) {
             SCOPED_TRACE(testing::Message() << "finest " << finest << ", bands of " << band << ", reach " << reach);
             BinRowStream stream(img.width, img.height, finest);

@@ -956,11 +956,20 @@ public:
         join();
     }
 
+    // For a source of halves read by the reader thread: starts it, so that
+    // band 0 is decoded while the caller makes its reducers (next() starts
+    // it otherwise).
+    void start() {
+        if (streaming() && !reader_.joinable() && next_y_ < h_) reader_ = std::thread([this] { read_ahead(); });
+    }
     // The next band: its rows (to be cleaned in place), first row and count; false after the last.
     bool next(std::vector<float*>& rows, int& y0, int& n) {
         if (next_y_ >= h_) return false;
         const int cur = k_ & 1;
-        if (k_ == 0) read_into(cur, 0);
+        if (k_ == 0) {
+            if (streaming()) start();
+            else read_into(cur, 0);
+        }
         if (streaming()) {
             std::exception_ptr failed;  // band k's read, not a later one's
             {
@@ -988,10 +997,7 @@ public:
         have1_ = y0 + n - 1;
         next_y_ = y0 + n;
         ++k_;
-        if (streaming()) {
-            if (k_ == 1 && next_y_ < h_) reader_ = std::thread([this] { read_ahead(); });
-            return true;
-        }
+        if (streaming()) return true;
         if (next_y_ < h_ && overlap_) {
             const int other = k_ & 1, start = next_y_;
             reader_ = std::thread([this, other, start] {
@@ -1041,9 +1047,9 @@ private:
     float* slot(int y) { return buf_[0].data() + size_t(y % slots_) * row_; }
     bool streaming() const { return halves_ && overlap_; }
     // The reader thread of a source of halves: band j into buffer j & 1 once
-    // band j - 2 is made floats, bands 1 .. the last in turn.
+    // band j - 2 is made floats, bands 0 .. the last in turn.
     void read_ahead() {
-        for (int j = 1;; ++j) {
+        for (int j = 0;; ++j) {
             const int y0 = j * band_;
             if (y0 >= h_) return;
             {
@@ -1091,9 +1097,27 @@ private:
     // whose halves are floats, and the pass's end.
     std::mutex m_;
     std::condition_variable cv_;
-    int read_ = 0, freed_ = -1;
+    int read_ = -1, freed_ = -1;
     bool stop_ = false;
 };
+
+// The widths of the bins a streamed pass reduces (BandReducers): the
+// tree's finest, the irradiance's own, or the SH9's alone.
+std::vector<int> stream_bin_widths(const SourceBake& b) {
+    const bool need_tree = b.r1 > 0.0;
+    std::vector<int> widths;
+    if (need_tree) widths.push_back(b.finest_bins);
+    if (b.want_irr && !irradiance_from_tree(b.o, need_tree, b.finest_bins)) widths.push_back(b.o.irradiance_bins);
+    if (widths.empty()) widths.push_back(sh9_bin_width(b, need_tree));
+    return widths;
+}
+
+// The most source rows a bin row of those reads (BandReducers::reach()).
+int stream_reach(const SourceBake& b, int h) {
+    int r = 1;
+    for (int w : stream_bin_widths(b)) r = std::max(r, BinRowStream::reach(h, w));
+    return r;
+}
 
 // What a streamed pass reduces each band into: the summary (SummaryStream),
 // the hot texels (HotStream), the finest bins' rows (BinRowStream; a second
@@ -1152,12 +1176,7 @@ struct BandReducers {
 
 // The pass over the source's bands, two buffers deep (a reader thread
 // decodes band k+1 while band k is reduced).
-void read_bands(SourceBake& b, BandSource& src, BandReducers& red) {
-    const int h = src.height();
-    const int reach = red.reach();
-    const int keep = std::max(1, reach - 1);
-    const int band = std::max({src.preferred_band(), reach, keep + 1, 16});
-    BandRing ring(src, band, keep, b.o.threads != 1);
+void read_bands(SourceBake& b, BandRing& ring, int h, BandReducers& red) {
     std::vector<float*> rows;
     int y0 = 0, n = 0;
     while (ring.next(rows, y0, n)) {
@@ -1181,8 +1200,17 @@ bool stream_front(SourceBake& b, BandSource& src) {
     aspect_warning(r, w, h);
     b.report("reading source", 0.0);
     plan_levels(b);
+    // The bands, sized for the rows the bin rows reach, and the first read
+    // while the reducers are made (44 ms at 16K: the mip 0 lookups' sort,
+    // the hat tables).
+    const int reach = stream_reach(b, h);
+    const int keep = std::max(1, reach - 1);
+    const int band = std::max({src.preferred_band(), reach, keep + 1, 16});
+    BandRing ring(src, band, keep, b.o.threads != 1);
+    ring.start();
     BandReducers red(b, w, h);
-    read_bands(b, src, red);
+    if (red.reach() != reach) throw std::logic_error("streamed bake: the bands do not hold the rows a bin row reads");
+    read_bands(b, ring, h, red);
     b.advance(0.05);  // hot_split()'s share, done here
     red.check_finished();
     b.summary = red.sums.finish();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <utility>
@@ -445,6 +446,19 @@ void BinRowStream::add_rows(ImageView img, int y0, int y1) {
         red_.row(img, br, &bins_[size_t(br) * w_], &sh9_rows_[size_t(br)]);
         done_[br] = 1;
     });
+}
+
+int BinRowStream::reach(int img_h, int finest_w) {
+    const int w = std::max(2, finest_w);
+    std::vector<int> first(size_t(w / 2), std::numeric_limits<int>::max()), last(size_t(w / 2), -1);
+    for (const HatPiece& p : hat_pieces_lat(img_h, w / 2)) {
+        first[size_t(p.bin)] = std::min(first[size_t(p.bin)], p.texel);
+        last[size_t(p.bin)] = std::max(last[size_t(p.bin)], p.texel);
+    }
+    int r = 1;
+    for (int br = 0; br < w / 2; ++br)
+        if (last[size_t(br)] >= first[size_t(br)]) r = std::max(r, last[size_t(br)] - first[size_t(br)] + 1);
+    return r;
 }
 
 int BinRowStream::max_reach() const {

@@ -143,6 +143,9 @@ public:
     // The most rows one bin row reads: bands of B rows overlapping by
     // max_reach() - 1 rows (start k at k (B - max_reach() + 1)) serve every bin row.
     int max_reach() const;
+    // max_reach() of a BinRowStream(any width, img_h, finest_w), from the
+    // latitude pieces alone (before the stream is made).
+    static int reach(int img_h, int finest_w);
     int pending() const;                            // bin rows not yet reduced
     BinTree finish(const double* channel_means, std::vector<Bin>* keep = nullptr, int keep_w = 0,
                    const BinTreeOptions& options = {});
