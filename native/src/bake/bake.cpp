@@ -1101,21 +1101,27 @@ private:
     bool stop_ = false;
 };
 
-// The widths of the bins a streamed pass reduces (BandReducers): the
-// tree's finest, the irradiance's own, or the SH9's alone.
-std::vector<int> stream_bin_widths(const SourceBake& b) {
+// The bins a streamed pass reduces (BandReducers), by width (0: none): the
+// tree's finest, the irradiance's own when the tree's are too coarse for
+// it, and, when neither is reduced, bins for the SH9 alone.
+struct StreamBins {
+    int tree = 0, irr = 0, sh9 = 0;
+    std::array<int, 3> widths() const { return {tree, irr, sh9}; }
+};
+StreamBins stream_bins(const SourceBake& b) {
+    StreamBins s;
     const bool need_tree = b.r1 > 0.0;
-    std::vector<int> widths;
-    if (need_tree) widths.push_back(b.finest_bins);
-    if (b.want_irr && !irradiance_from_tree(b.o, need_tree, b.finest_bins)) widths.push_back(b.o.irradiance_bins);
-    if (widths.empty()) widths.push_back(sh9_bin_width(b, need_tree));
-    return widths;
+    if (need_tree) s.tree = b.finest_bins;
+    if (b.want_irr && !irradiance_from_tree(b.o, need_tree, b.finest_bins)) s.irr = b.o.irradiance_bins;
+    if (!s.tree && !s.irr) s.sh9 = sh9_bin_width(b, need_tree);
+    return s;
 }
 
 // The most source rows a bin row of those reads (BandReducers::reach()).
 int stream_reach(const SourceBake& b, int h) {
     int r = 1;
-    for (int w : stream_bin_widths(b)) r = std::max(r, BinRowStream::reach(h, w));
+    for (int w : stream_bins(b).widths())
+        if (w) r = std::max(r, BinRowStream::reach(h, w));
     return r;
 }
 
@@ -1128,10 +1134,10 @@ struct BandReducers {
         if (b.want_irr) hots = std::make_unique<HotStream>(w, h, b.o.max_hot);
         need_tree = b.r1 > 0.0;
         b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
-        if (need_tree) bins = std::make_unique<BinRowStream>(w, h, b.finest_bins);
-        if (b.want_irr && !b.irr_from_tree) irr_bins = std::make_unique<BinRowStream>(w, h, b.o.irradiance_bins);
-        // The SH9 from the first of these there is (sh9_bin_width()), else bins of its own.
-        if (!bins && !irr_bins) sh9_bins = std::make_unique<BinRowStream>(w, h, sh9_bin_width(b, need_tree));
+        const StreamBins s = stream_bins(b);
+        if (s.tree) bins = std::make_unique<BinRowStream>(w, h, s.tree);
+        if (s.irr) irr_bins = std::make_unique<BinRowStream>(w, h, s.irr);
+        if (s.sh9) sh9_bins = std::make_unique<BinRowStream>(w, h, s.sh9);
         size_t mirror_jobs = 0;
         for (const LevelJob& job : b.jobs) mirror_jobs += job.roughness == 0.0;
         mirrors.reserve(mirror_jobs);  // the streams hold references
@@ -1163,7 +1169,8 @@ struct BandReducers {
             if (m->pending() != 0) throw std::logic_error("streamed bake: mip 0 texels left unread");
     }
 
-    // The SH9 of SPEC's L (project_sh9_bilinear at sh9_bin_width()).
+    // The SH9 of SPEC's L from the first bins there are (project_sh9_bilinear
+    // at sh9_bin_width(): what a whole bake reports).
     std::array<Sh9, 3> sh9() const { return (bins ? bins : irr_bins ? irr_bins : sh9_bins)->sh9(); }
 
     SummaryStream sums;
