@@ -172,7 +172,7 @@ void expect_streamed_equals(const BakeResult& whole, const BakeOptions& options,
 }  // namespace
 
 TEST(StreamedBake, EqualsTheWholeImageBakeToTheBit) {
-    std::vector<BakeOptions> options(7, small_options());
+    std::vector<BakeOptions> options(8, small_options());
     options[1].face_size = 256;  // finest bins 512, the default's
     options[1].irradiance_bins = 128;
     options[2].irradiance = false;
@@ -182,6 +182,8 @@ TEST(StreamedBake, EqualsTheWholeImageBakeToTheBit) {
     options[4].mip_count = 1;  // mip 0 alone: no tree, the irradiance's own bins
     options[5].irradiance_bins = 128;  // finer than the tree's 128 / 4: its own bins
     options[6].hierarchical.eps = 0.1;  // finest bins 1024
+    options[7].mip_count = 1;           // no tree and no irradiance: bins for the SH9 alone
+    options[7].irradiance = false;
     const std::vector<Image> srcs = sources();
     for (size_t si = 0; si < srcs.size(); ++si)
         for (size_t oi = 0; oi < options.size(); ++oi) {
