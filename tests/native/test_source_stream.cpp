@@ -144,10 +144,18 @@ TEST(BinRowStream, BandsEqualTheWholeImage) {
         chroma += whole.chroma_count();
         BinRowStream probe(img.width, img.height, finest);
         const int reach = probe.max_reach();
-        // What the streamed bake sizes its bands by before the streams exist.
-        EXPECT_EQ(BinRowStream::reach(img.height, finest), reach);
-        for (int h : {1, 2, 3, 7, 8192})
-            EXPECT_EQ(BinRowStream::reach(h, finest), BinRowStream(2 * h, h, finest).max_reach()) << h;
+        // What the streamed bake sizes its bands by before the streams exist:
+        // the most rows any bin row's reduction reads (its source_rows).
+        for (int h : {1, 2, 3, 7, img.height, 8192}) {
+            const BinRowStream s(2 * h, h, finest);
+            int most = 1;
+            for (int br = 0; br < std::max(2, finest) / 2; ++br) {
+                const auto [first, last] = s.source_rows(br);
+                if (last >= first) most = std::max(most, last - first + 1);
+            }
+            EXPECT_EQ(BinRowStream::reach(h, finest), most) << h;
+            EXPECT_EQ(s.max_reach(), most) << h;
+        }
         for (int band : {reach, reach + 3, 2 * reach + 5, img.height}) {
             SCOPED_TRACE(testing::Message() << "finest " << finest << ", bands of " << band << ", reach " << reach);
             BinRowStream stream(img.width, img.height, finest);

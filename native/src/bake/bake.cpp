@@ -489,6 +489,7 @@ struct SourceBake {
     ImageView integrand;
     bool summary_holds = false;  // the summary describes the integrand
     std::array<double, 3> channel_mean{};  // the integrand's texel-constant mean (HotRows): the tree's chroma floor
+    std::optional<HotRows> integrand_hot;   // hot_rows(integrand), when the summary does not describe it
     // plan_levels() .. specular_levels().
     int finest_bins = 2;
     std::vector<LevelJob> jobs;
@@ -681,6 +682,14 @@ void mirror_levels(SourceBake& b) {
     if (mirrored) b.clock.done("specular_mip0");
 }
 
+// The integrand's hot rows: the summary's when it describes the integrand,
+// else made once (the hot split and the tree's chroma floor both read them).
+const HotRows& integrand_hot_rows(SourceBake& b) {
+    if (b.summary_holds) return b.summary.hot;
+    if (!b.integrand_hot) b.integrand_hot = hot_rows(b.integrand);
+    return *b.integrand_hot;
+}
+
 // The hot split kept, and told in the result.
 void set_split(SourceBake& b, HotSplit&& split) {
     b.split = std::move(split);
@@ -692,7 +701,7 @@ void set_split(SourceBake& b, HotSplit&& split) {
 // The hot texels, integrated exactly by the irradiance and FIS.
 void hot_split(SourceBake& b) {
     if (b.want_irr || (b.r1 > 0.0 && b.fis)) {
-        set_split(b, split_hot(b.integrand, b.o.hot_threshold, b.o.max_hot, b.summary_holds ? &b.summary.hot : nullptr));
+        set_split(b, split_hot(b.integrand, b.o.hot_threshold, b.o.max_hot, &integrand_hot_rows(b)));
         b.clock.done("hot_split");
     }
     b.advance(0.05);
@@ -715,7 +724,7 @@ void bin_tree(SourceBake& b) {
     b.r.specular_base_face = b.finest_bins;
     BinTreeOptions tree_options;
     // The integrand's mean per channel: the chroma scores' floor.
-    b.channel_mean = channel_means(b.summary_holds ? b.summary.hot : hot_rows(b.integrand));
+    b.channel_mean = channel_means(integrand_hot_rows(b));
     tree_options.channel_mean = b.channel_mean.data();
     std::array<Sh9, 3> sh9{};
     tree_options.sh9 = &sh9;

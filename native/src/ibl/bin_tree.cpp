@@ -430,7 +430,7 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
 }
 
 BinRowStream::BinRowStream(int img_w, int img_h, int finest_w)
-    : w_(std::max(2, finest_w)), red_(ImageView(nullptr, img_w, img_h), w_, w_ / 2),
+    : w_(std::max(2, finest_w)), img_h_(img_h), red_(ImageView(nullptr, img_w, img_h), w_, w_ / 2),
       bins_(size_t(w_) * (w_ / 2)), sh9_rows_(size_t(w_ / 2)), done_(w_ / 2, 0) {}
 
 void BinRowStream::add_rows(ImageView img, int y0, int y1) {
@@ -461,14 +461,7 @@ int BinRowStream::reach(int img_h, int finest_w) {
     return r;
 }
 
-int BinRowStream::max_reach() const {
-    int reach = 1;
-    for (int br = 0; br < w_ / 2; ++br) {
-        const auto [first, last] = red_.source_rows(br);
-        if (last >= first) reach = std::max(reach, last - first + 1);
-    }
-    return reach;
-}
+int BinRowStream::max_reach() const { return reach(img_h_, w_); }
 
 int BinRowStream::pending() const {
     int n = 0;

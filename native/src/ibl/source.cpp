@@ -640,21 +640,32 @@ std::array<Sh9, 3> sum_sh9_rows(const std::vector<std::array<Sh9, 3>>& rows) {
     return sum;
 }
 
+namespace {
+
+// The first n columns of a width-w row: t[0..3][x] = a1 (cos, sin) phi_x
+// and a2 (cos, sin) 2 phi_x, phi_x column x's centre longitude: the SH9's
+// longitude tables, which differ only in what a column's profile (a box or
+// a tent) makes of frequencies 1 and 2.
+void phase_tables(int w, int n, double a1, double a2, std::vector<double> (&t)[4]) {
+    for (auto& v : t) v.resize(size_t(n));
+    for (int x = 0; x < n; ++x) {
+        const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
+        t[0][x] = a1 * std::cos(phi);
+        t[1][x] = a1 * std::sin(phi);
+        t[2][x] = a2 * std::cos(2.0 * phi);
+        t[3][x] = a2 * std::sin(2.0 * phi);
+    }
+}
+
+}  // namespace
+
 double kernel::sh9_hat_tables(int w, std::vector<double> (&h)[4]) {
     const double p0 = 2.0 * kPi / w;
     auto sinc2 = [](double t) {
         const double s = std::sin(t) / t;
         return s * s;
     };
-    const double k1 = p0 * sinc2(0.5 * p0), k2 = 0.5 * p0 * sinc2(p0);
-    for (auto& v : h) v.resize(size_t(w));
-    for (int x = 0; x < w; ++x) {
-        const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
-        h[0][x] = k1 * std::cos(phi);
-        h[1][x] = k1 * std::sin(phi);
-        h[2][x] = k2 * std::cos(2.0 * phi);
-        h[3][x] = k2 * std::sin(2.0 * phi);
-    }
+    phase_tables(w, w, p0 * sinc2(0.5 * p0), 0.5 * p0 * sinc2(p0), h);
     return p0;
 }
 
@@ -663,16 +674,8 @@ double kernel::sh9_quarter_tables(int w, std::vector<double> (&q)[4]) {
     // closed form (no difference of nearby sines): over a column of width
     // p0 centred on phi, 2 sin(p0 / 2) (cos phi, sin phi) and
     // sin(p0) / 2 (cos 2 phi, sin 2 phi).
-    const int n = w / 4;
-    const double p0 = 2.0 * kPi / w, half = 2.0 * std::sin(0.5 * p0), full = 0.5 * std::sin(p0);
-    for (auto& v : q) v.resize(n);
-    for (int x = 0; x < n; ++x) {
-        const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
-        q[0][x] = half * std::cos(phi);
-        q[1][x] = half * std::sin(phi);
-        q[2][x] = full * std::cos(2.0 * phi);
-        q[3][x] = full * std::sin(2.0 * phi);
-    }
+    const double p0 = 2.0 * kPi / w;
+    phase_tables(w, w / 4, 2.0 * std::sin(0.5 * p0), 0.5 * std::sin(p0), q);
     return p0;
 }
 

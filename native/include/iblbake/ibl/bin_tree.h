@@ -144,7 +144,7 @@ public:
     // max_reach() - 1 rows (start k at k (B - max_reach() + 1)) serve every bin row.
     int max_reach() const;
     // max_reach() of a BinRowStream(any width, img_h, finest_w), from the
-    // latitude pieces alone (before the stream is made).
+    // latitude pieces alone (before the stream is made; max_reach() is this).
     static int reach(int img_h, int finest_w);
     int pending() const;                            // bin rows not yet reduced
     BinTree finish(const double* channel_means, std::vector<Bin>* keep = nullptr, int keep_w = 0,
@@ -156,7 +156,7 @@ public:
     std::array<Sh9, 3> sh9() const;
 
 private:
-    int w_;
+    int w_, img_h_;
     BinReduction red_;
     std::vector<Bin> bins_;
     std::vector<std::array<Sh9, 3>> sh9_rows_;
