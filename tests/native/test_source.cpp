@@ -441,7 +441,16 @@ TEST(Source, BilinearSh9IsTheIntegralOfSpecsL) {
         options.sh9 = &from_tree;
         build_bin_tree(img, bw, nullptr, 0, options);
         EXPECT_EQ(std::memcmp(from_tree.data(), whole.data(), sizeof(whole)), 0) << bw;
+        // And from reduce_to_bins' (a whole bake's irradiance bins without a
+        // tree), whose bins are those it makes without the SH9.
+        std::array<Sh9, 3> from_bins{};
+        const std::vector<Bin> bins = reduce_to_bins(img, bw, bw / 2, &from_bins), plain = reduce_to_bins(img, bw, bw / 2);
+        EXPECT_EQ(std::memcmp(from_bins.data(), whole.data(), sizeof(whole)), 0) << bw;
+        ASSERT_EQ(bins.size(), plain.size());
+        EXPECT_EQ(std::memcmp(bins.data(), plain.data(), bins.size() * sizeof(Bin)), 0) << bw;
     }
+    std::array<Sh9, 3> from_nothing{};
+    EXPECT_THROW(BinReduction(img, 8, 4).row(0, std::vector<Bin>(8).data(), &from_nothing), std::logic_error);
     const std::array<Sh9, 3> flat = project_sh9_bilinear(ref::constant_source(64, 32, 2.0f), 16);
     for (int ch = 0; ch < 3; ++ch) {
         EXPECT_NEAR(flat[ch][0], 0.282095 * 2.0 * 4.0 * kPi, 1e-12);

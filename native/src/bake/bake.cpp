@@ -716,7 +716,15 @@ void bin_tree(SourceBake& b) {
     const bool need_tree = !b.fis && b.r1 > 0.0;
     b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
     if (!need_tree) {
-        set_sh9(b.r, project_sh9_bilinear(b.integrand, sh9_bin_width(b, false)));
+        if (b.irradiance_reads_source()) {
+            // The irradiance's own bins are the SH9's (sh9_bin_width): one
+            // reduction for both; start_irradiance() takes the hot texels out.
+            std::array<Sh9, 3> sh9{};
+            b.irr_bins = reduce_to_bins(b.integrand, b.o.irradiance_bins, b.o.irradiance_bins / 2, &sh9);
+            set_sh9(b.r, sh9);
+        } else {
+            set_sh9(b.r, project_sh9_bilinear(b.integrand, sh9_bin_width(b, false)));
+        }
         b.clock.done("sh9");
         return;
     }
@@ -774,8 +782,8 @@ void start_irradiance(SourceBake& b) {
         b.report("irradiance", b.done);
         const int bw = b.o.irradiance_bins, bh = b.o.irradiance_bins / 2;
         // What reads the source is done here: the levels below may free it.
-        if (b.irradiance_reads_source()) b.irr_bins = reduce_rest_to_bins(b.integrand, b.split, bw, bh);
-        else remove_hot(b.irr_bins, bw, bh, b.integrand.width, b.integrand.height, b.split);
+        if (b.irradiance_reads_source() && b.irr_bins.empty()) b.irr_bins = reduce_to_bins(b.integrand, bw, bh);
+        remove_hot(b.irr_bins, bw, bh, b.integrand.width, b.integrand.height, b.split);
         b.irr_task.run([&b, bw, bh] { convolve_irradiance(b, bw, bh); });
         b.clock.done("irradiance_start");
     }

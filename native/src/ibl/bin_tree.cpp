@@ -411,7 +411,7 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
     if (options.channel_mean) std::copy(options.channel_mean, options.channel_mean + 3, mean);
     else channel_mean(latlong, mean);
     const int w = std::max(2, finest_w);
-    const BinReduction red(latlong, w, w / 2);  // reduce_to_bins(latlong, 2, 1)'s own, at w = 2
+    const BinReduction red(latlong, w, w / 2, options.sh9 != nullptr);  // reduce_to_bins(latlong, 2, 1)'s own, at w = 2
     std::function<void(int)> level0_done;
     std::vector<int> first;  // the first source row that level 0's rows from br on read
     if (options.source_done) {
@@ -430,7 +430,7 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
 }
 
 BinRowStream::BinRowStream(int img_w, int img_h, int finest_w)
-    : w_(std::max(2, finest_w)), img_h_(img_h), red_(ImageView(nullptr, img_w, img_h), w_, w_ / 2),
+    : w_(std::max(2, finest_w)), img_h_(img_h), red_(ImageView(nullptr, img_w, img_h), w_, w_ / 2, /*sh9=*/true),
       bins_(size_t(w_) * (w_ / 2)), sh9_rows_(size_t(w_ / 2)), done_(w_ / 2, 0) {}
 
 void BinRowStream::add_rows(ImageView img, int y0, int y1) {

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <utility>
 
 
@@ -420,7 +421,7 @@ Image rest_image(ImageView img, const HotSplit& split) {
     return rest;
 }
 
-BinReduction::BinReduction(ImageView img, int bw, int bh)
+BinReduction::BinReduction(ImageView img, int bw, int bh, bool sh9)
     : img_(img), bw_(std::max(1, bw)), bh_(std::max(1, bh)) {
     cols_ = hat_pieces_lon(img.width, bw_);
     rows_ = hat_pieces_lat(img.height, bh_);  // t = 1 - v, from the top
@@ -428,7 +429,7 @@ BinReduction::BinReduction(ImageView img, int bw, int bh)
     first_.assign(bh_ + 1, rows_.size());
     for (size_t k = rows_.size(); k-- > 0;) first_[rows_[k].bin] = k;
     for (int r = bh_; r-- > 0;) first_[r] = std::min(first_[r], first_[r + 1]);
-    p0_ = kernel::sh9_hat_tables(img.width, hat_);
+    if (sh9) p0_ = kernel::sh9_hat_tables(img.width, hat_);
 }
 
 namespace {
@@ -558,6 +559,7 @@ void BinReduction::row(ImageView img, int br, Bin* out, std::array<Sh9, 3>* sh9)
         add_hat_product(out[cp.bin], one, cs0 + i, cs1 + i, cs2 + i, cc0 + i, cc1 + i, cp.w);
     }
     if (sh9) {
+        if (hat_[0].empty()) throw std::logic_error("BinReduction::row: SH9 asked of a reduction made without it");
         const double* h[4] = {hat_[0].data(), hat_[1].data(), hat_[2].data(), hat_[3].data()};
         double t[3][6];
         kernel::sh9_band2_fn()(cs0, cs2, cc1, h, size_t(img_.width), t);
@@ -567,7 +569,7 @@ void BinReduction::row(ImageView img, int br, Bin* out, std::array<Sh9, 3>* sh9)
 
 std::array<Sh9, 3> project_sh9_bilinear(ImageView img, int bw) {
     const int w = std::max(2, bw);
-    const BinReduction red(img, w, w / 2);
+    const BinReduction red(img, w, w / 2, /*sh9=*/true);
     std::vector<std::array<Sh9, 3>> rows(size_t(red.height()));
     parallel_for(0, red.height(), [&](int br) {
         thread_local std::vector<Bin> bins;
@@ -577,10 +579,14 @@ std::array<Sh9, 3> project_sh9_bilinear(ImageView img, int bw) {
     return sum_sh9_rows(rows);
 }
 
-std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh) {
-    const BinReduction red(img, bw, bh);
+std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh, std::array<Sh9, 3>* sh9) {
+    const BinReduction red(img, bw, bh, sh9 != nullptr);
     std::vector<Bin> bins(size_t(red.width()) * red.height());
-    parallel_for(0, red.height(), [&](int br) { red.row(br, &bins[size_t(br) * red.width()]); });
+    std::vector<std::array<Sh9, 3>> rows(sh9 ? size_t(red.height()) : 0);
+    parallel_for(0, red.height(), [&](int br) {
+        red.row(br, &bins[size_t(br) * red.width()], sh9 ? &rows[size_t(br)] : nullptr);
+    });
+    if (sh9) *sh9 = sum_sh9_rows(rows);
     return bins;
 }
 

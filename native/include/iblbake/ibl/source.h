@@ -127,12 +127,15 @@ struct Bin {
     // (A bin's geometry, its solid angle and first moment, is that of its
     // rectangle alone: rect_solid_angle and rect_moment, math/latlong.h.)
 };
-std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh);
+// With sh9: also project_sh9_bilinear(img, bw) (bh = bw / 2), to the bit, from
+// the same reduction.
+std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh, std::array<Sh9, 3>* sh9 = nullptr);
 // The same reduction one bin row at a time: rows are independent, so a caller
-// can run them in parallel and keep only what it needs of each.
+// can run them in parallel and keep only what it needs of each. sh9: rows
+// may be asked for their SH9 (the longitude hats' tables are made).
 class BinReduction {
 public:
-    BinReduction(ImageView img, int bw, int bh);
+    BinReduction(ImageView img, int bw, int bh, bool sh9 = false);
     int width() const { return bw_; }
     int height() const { return bh_; }
     // Bins (0..bw-1, br), overwritten; with sh9, also the bin row's part of
@@ -151,7 +154,7 @@ private:
     int bw_, bh_;
     std::vector<HatPiece> cols_, rows_;
     std::vector<size_t> first_;  // first row piece of each bin row
-    std::vector<double> hat_[4];  // kernel::sh9_hat_tables
+    std::vector<double> hat_[4];  // kernel::sh9_hat_tables (empty without sh9)
     double p0_ = 0.0;
 };
 // o += b, every integral.
