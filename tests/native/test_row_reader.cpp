@@ -375,11 +375,10 @@ TEST(StreamingPass, FromEnvironment) {
         ASSERT_EQ(bins.pending(), 0);
         ASSERT_EQ(mirror.pending(), 0u);
         summary = sum.finish();
-        double mean[3];
-        for (int c = 0; c < 3; ++c) mean[c] = summary.sh9[c][0] / (2.0 * std::sqrt(M_PI));
+        const std::array<double, 3> mean = channel_means(summary.hot);  // the bake's chroma floor
         BinTreeOptions options;
-        options.channel_mean = mean;
-        tree = bins.finish(mean, &keep, keep_w, options);
+        options.channel_mean = mean.data();
+        tree = bins.finish(mean.data(), &keep, keep_w, options);
         hot = hots.finish(rel, summary.hot);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         rusage ru{};
@@ -392,11 +391,10 @@ TEST(StreamingPass, FromEnvironment) {
     SourceSummary ws = summarize_source(whole.image);
     clean_bad_rows(whole.image, ws.scan);
     refresh_summary_rows(ws, whole.image, ws.scan.bad_rows);
-    EXPECT_EQ(0, std::memcmp(&ws.sh9, &summary.sh9, sizeof(ws.sh9)));
-    double mean[3];
-    for (int c = 0; c < 3; ++c) mean[c] = ws.sh9[c][0] / (2.0 * std::sqrt(M_PI));
+    const std::array<double, 3> mean = channel_means(ws.hot);
+    EXPECT_EQ(mean, channel_means(summary.hot));
     BinTreeOptions options;
-    options.channel_mean = mean;
+    options.channel_mean = mean.data();
     std::vector<Bin> wkeep;
     const BinTree wt = build_bin_tree(whole.image, finest, &wkeep, keep_w, options);
     ASSERT_EQ(wt.levels.size(), tree.levels.size());

@@ -53,9 +53,6 @@ void expect_equal(const SourceSummary& a, const SourceSummary& b) {
     EXPECT_EQ(a.scan.bad.pixels, b.scan.bad.pixels);
     EXPECT_EQ(a.scan.bad_rows, b.scan.bad_rows);
     EXPECT_TRUE(same_bits(a.scan.max_value, b.scan.max_value));
-    EXPECT_TRUE(same_bits(a.sh9, b.sh9));
-    ASSERT_EQ(a.sh9_rows.size(), b.sh9_rows.size());
-    for (size_t y = 0; y < a.sh9_rows.size(); ++y) EXPECT_TRUE(same_bits(a.sh9_rows[y], b.sh9_rows[y])) << y;
     ASSERT_EQ(a.hot.mean.size(), b.hot.mean.size());
     for (size_t y = 0; y < a.hot.mean.size(); ++y) {
         EXPECT_TRUE(same_bits(a.hot.mean[y], b.hot.mean[y])) << y;

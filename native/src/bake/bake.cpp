@@ -484,7 +484,7 @@ struct SourceBake {
     Image oriented;                  // orient(): the source turned about the up axis
     std::vector<float> sun_rows;     // split_sun(): the changed rows of a source not owned
     std::vector<const float*> sun_row_table;
-    // sh9(): the grid the integrals run on.
+    // integration_grid(): the grid the integrals run on.
     Image resampled;
     ImageView integrand;
     bool summary_holds = false;  // the summary describes the integrand
@@ -552,7 +552,7 @@ void scan(SourceBake& b) {
     option_warnings(r, b.o);
     aspect_warning(r, b.view.width, b.view.height);
     b.report("reading source", 0.0);
-    b.summary = summarize_source(b.view, /*sh9=*/false);
+    b.summary = summarize_source(b.view);
     b.scanned = b.view;
     r.bad_input = b.summary.scan.bad;
     check_strict(r, b.o);
@@ -637,9 +637,9 @@ void set_sh9(BakeResult& r, const std::array<Sh9, 3>& sh9) {
     for (int c = 0; c < 3; ++c) r.mean_radiance[c] = r.sh9[c][0] / (2.0 * std::sqrt(kPi));
 }
 
-// The grid the integrals run on (the SH9 of the radiance on it comes with
-// the bins: bin_tree()).
-void sh9(SourceBake& b) {
+// The grid the integrals run on (the SH9 of SPEC's L comes with the bins:
+// bin_tree()).
+void integration_grid(SourceBake& b) {
     BakeResult& r = b.r;
     const ImageView& source = b.source;
     // The bins integrate SPEC's bilinear L exactly, whatever the source's
@@ -654,7 +654,7 @@ void sh9(SourceBake& b) {
     // The summary describes the integrand when that is the source unchanged
     // or cleaned (its bad rows summarized again in sanitize()).
     b.summary_holds = b.scale_exp == 0 && same_pixels(b.integrand, b.summary_refreshed ? source : b.scanned);
-    b.clock.done("sh9");
+    b.clock.done("integration_grid");
 }
 
 // The levels to integrate and the finest bins they need.
@@ -1147,7 +1147,7 @@ int stream_reach(const SourceBake& b, int h) {
 // one at the irradiance's own bins when the tree's are too coarse for it)
 // and mip 0's lookups (MirrorStream).
 struct BandReducers {
-    BandReducers(SourceBake& b, int w, int h) : sums(w, h, /*sh9=*/false) {
+    BandReducers(SourceBake& b, int w, int h) : sums(w, h) {
         if (b.want_irr) hots = std::make_unique<HotStream>(w, h, b.o.max_hot);
         need_tree = b.r1 > 0.0;
         b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
@@ -1243,7 +1243,7 @@ bool stream_front(SourceBake& b, BandSource& src) {
     b.scale_exp = overflow_guard_exponent(b.summary.scan.max_value);
     if (b.scale_exp != 0) return false;
     b.clock.done("read");
-    // sh9(): the summary describes the cleaned source, the integrand.
+    // integration_grid(): the summary describes the cleaned source, the integrand.
     b.source = b.integrand = ImageView(nullptr, w, h);
     b.summary_holds = true;
     r.integration_width = w;
@@ -1296,7 +1296,7 @@ BakeResult bake_source(ImageView view, Image* owned, const BakeOptions& o, const
         sanitize(b);
         orient(b);
         split_sun_stage(b);
-        sh9(b);
+        integration_grid(b);
         plan_levels(b);
         mirror_levels(b);
         hot_split(b);

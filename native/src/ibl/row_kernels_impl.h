@@ -1,10 +1,10 @@
-// The SH9 projection's row sums, the bins' column sums, mip 0's lat-long coordinates and the
-// irradiance's cosine sums (specular_kernel.h), included by one translation
-// unit per instruction set (specular_kernel_*.cpp) with IBLBAKE_ISA_SUFFIX
-// naming the functions it defines (sh9_row_<suffix>, ...); nothing else
-// here has external linkage (math/fast_math.h's atan2_vec is static, so
-// each unit has its own copy: no inline function built with these flags can
-// be picked by the linker for another unit).
+// The bins' column sums and their SH9 band-2 sums, mip 0's lat-long
+// coordinates and the irradiance's cosine sums (specular_kernel.h), included
+// by one translation unit per instruction set (specular_kernel_*.cpp) with
+// IBLBAKE_ISA_SUFFIX naming the functions it defines (row_pieces_<suffix>,
+// ...); nothing else here has external linkage (math/fast_math.h's atan2_vec
+// is static, so each unit has its own copy: no inline function built with
+// these flags can be picked by the linker for another unit).
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -23,129 +23,8 @@ namespace iblbake {
 namespace kernel {
 
 namespace {
-typedef double Rgb8d __attribute__((vector_size(64)));
-typedef float Rgb8f __attribute__((vector_size(32)));
-typedef int Rgb8i __attribute__((vector_size(32)));
-
-// Eight RGB pixels, the 24 floats from p, into one vector of doubles per
-// channel (the SH9 row kernels').
-inline void rgb8_to_doubles(const float* p, Rgb8d out[3]) {
-    Rgb8f a, b, c3;
-    std::memcpy(&a, p, sizeof(a));
-    std::memcpy(&b, p + 8, sizeof(b));
-    std::memcpy(&c3, p + 16, sizeof(c3));
-    const Rgb8f r = __builtin_shuffle(__builtin_shuffle(a, b, Rgb8i{0, 3, 6, 9, 12, 15, 0, 0}), c3,
-                                      Rgb8i{0, 1, 2, 3, 4, 5, 10, 13});
-    const Rgb8f g = __builtin_shuffle(__builtin_shuffle(a, b, Rgb8i{1, 4, 7, 10, 13, 0, 0, 0}), c3,
-                                      Rgb8i{0, 1, 2, 3, 4, 8, 11, 14});
-    const Rgb8f bl = __builtin_shuffle(__builtin_shuffle(a, b, Rgb8i{2, 5, 8, 11, 14, 0, 0, 0}), c3,
-                                       Rgb8i{0, 1, 2, 3, 4, 9, 12, 15});
-    out[0] = __builtin_convertvector(r, Rgb8d);
-    out[1] = __builtin_convertvector(g, Rgb8d);
-    out[2] = __builtin_convertvector(bl, Rgb8d);
-}
+typedef double Rgb8d __attribute__((vector_size(64)));  // eight doubles: one zmm on AVX-512
 }  // namespace
-
-// Lanes as GCC vectors of 8 doubles (zmm on AVX-512, whose 32 registers
-// hold the 18 sums; plain arrays spilled them on every pixel), lane l the
-// columns x0 + l as before, so every version adds the same products in the
-// same order (only FMA rounding differs between instruction sets).
-void IBLBAKE_ROW_KERNEL(sh9_row)(const float* row, int width, const double* const* wl, double (*t)[6]) {
-    constexpr int kLanes8 = 8;  // independent partial sums, one vector of doubles on AVX-512
-    typedef Rgb8d V8d;
-    V8d acc[3][6];
-    for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < 6; ++k) acc[c][k] = V8d{};
-    const int whole = width / kLanes8 * kLanes8;
-    for (int x0 = 0; x0 < whole; x0 += kLanes8) {
-        V8d v[3];
-        rgb8_to_doubles(row + size_t(x0) * 3, v);
-        for (int k = 0; k < 6; ++k) {
-            V8d w;
-            std::memcpy(&w, wl[k] + x0, sizeof(w));
-            for (int c = 0; c < 3; ++c) acc[c][k] += v[c] * w;
-        }
-    }
-    for (int x = whole; x < width; ++x)
-        for (int c = 0; c < 3; ++c)
-            for (int k = 0; k < 6; ++k) acc[c][k][0] += double(row[3 * x + c]) * wl[k][x];
-    for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < 6; ++k) {
-            double s = 0.0;
-            for (int l = 0; l < kLanes8; ++l) s += acc[c][k][l];
-            t[c][k] = s;
-        }
-}
-
-// The same six sums from a quarter of the longitude tables: a row of width
-// 4 n whose column x + j n lies a quarter turn j further on (phi - j pi / 2)
-// has, at that column, cos and sin turned (cos phi -> sin, -cos, -sin) and
-// cos 2 phi, sin 2 phi negated on odd quarters. So with L_j the radiance at
-// x + j n, a = L0 - L2, b = L1 - L3 and g = (L0 + L2) - (L1 + L3):
-//   sum L            over the whole row,
-//   sum pc a + ps b  = the cos integral,   sum ps a - pc b = the sin integral,
-//   sum d g          = the cos^2 integral less half the plain one (d = pcc - p0 / 2),
-//   sum psc g        = the sin cos integral,
-// where pc, ps, d, psc (q[0..3]) are column x's (x < n) and p0 every column's
-// width in phi. Per pixel a quarter of the table reads and about half the
-// arithmetic of sh9_row; the same sums, not the same rounding. No fused
-// multiply-add (fp-contract off): with it, which product of pc a + ps b a
-// compiler fuses is its own choice, and GCC 10 (the wheels) and 12 chose
-// differently; without it every compiler and instruction set gives the
-// same bits.
-__attribute__((optimize("fp-contract=off"))) void IBLBAKE_ROW_KERNEL(sh9_row_quarter)(const float* row, int width,
-                                                                                      const double* const* q,
-                                                                                      double p0, double (*t)[6]) {
-    constexpr int kLanes8 = 8;
-    typedef Rgb8d V8d;
-    const int n = width / 4;
-    V8d acc[3][5];
-    for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < 5; ++k) acc[c][k] = V8d{};
-    const int whole = n / kLanes8 * kLanes8;
-    for (int x0 = 0; x0 < whole; x0 += kLanes8) {
-        V8d L[4][3];
-        for (int j = 0; j < 4; ++j) rgb8_to_doubles(row + size_t(x0 + j * n) * 3, L[j]);
-        V8d pc, ps, d, psc;
-        std::memcpy(&pc, q[0] + x0, sizeof(pc));
-        std::memcpy(&ps, q[1] + x0, sizeof(ps));
-        std::memcpy(&d, q[2] + x0, sizeof(d));
-        std::memcpy(&psc, q[3] + x0, sizeof(psc));
-        for (int c = 0; c < 3; ++c) {
-            const V8d a = L[0][c] - L[2][c], b = L[1][c] - L[3][c];
-            const V8d e = L[0][c] + L[2][c], f = L[1][c] + L[3][c], g = e - f;
-            acc[c][0] += e + f;
-            acc[c][1] += pc * a + ps * b;
-            acc[c][2] += ps * a - pc * b;
-            acc[c][3] += d * g;
-            acc[c][4] += psc * g;
-        }
-    }
-    for (int x = whole; x < n; ++x)
-        for (int c = 0; c < 3; ++c) {
-            const double l0 = row[3 * x + c], l1 = row[3 * (x + n) + c], l2 = row[3 * (x + 2 * n) + c],
-                         l3 = row[3 * (x + 3 * n) + c];
-            const double a = l0 - l2, b = l1 - l3, g = (l0 + l2) - (l1 + l3);
-            acc[c][0][0] += (l0 + l2) + (l1 + l3);
-            acc[c][1][0] += q[0][x] * a + q[1][x] * b;
-            acc[c][2][0] += q[1][x] * a - q[0][x] * b;
-            acc[c][3][0] += q[2][x] * g;
-            acc[c][4][0] += q[3][x] * g;
-        }
-    for (int c = 0; c < 3; ++c) {
-        double s[5];
-        for (int k = 0; k < 5; ++k) {
-            s[k] = 0.0;
-            for (int l = 0; l < kLanes8; ++l) s[k] += acc[c][k][l];
-        }
-        t[c][0] = p0 * s[0];
-        t[c][1] = s[1];
-        t[c][2] = s[2];
-        t[c][3] = 0.5 * p0 * s[0] + s[3];
-        t[c][4] = 0.5 * p0 * s[0] - s[3];
-        t[c][5] = s[4];
-    }
-}
 
 // A bin row's five column sums (source.cpp's add_row_pieces), the whole
 // blocks of kBlock columns: each block taken through every piece at once,

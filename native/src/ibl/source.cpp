@@ -25,21 +25,17 @@ namespace {
 // per row, and each row's exact texel solid angle.
 struct LatLongTables {
     std::vector<double> cos_phi, sin_phi, cos_lat, sin_lat, omega;
-    std::vector<LonIntegrals> lon;
-    std::vector<LatIntegrals> lat;
-    LatLongTables(int w, int h) : cos_phi(w), sin_phi(w), cos_lat(h), sin_lat(h), omega(h), lon(w), lat(h) {
+    LatLongTables(int w, int h) : cos_phi(w), sin_phi(w), cos_lat(h), sin_lat(h), omega(h) {
         for (int x = 0; x < w; ++x) {
             const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
             cos_phi[x] = std::cos(phi);
             sin_phi[x] = std::sin(phi);
-            lon[x] = lon_integrals(double(x) / w, double(x + 1) / w);
         }
         for (int y = 0; y < h; ++y) {
             const double l = (0.5 - (y + 0.5) / h) * kPi;
             cos_lat[y] = std::cos(l);
             sin_lat[y] = std::sin(l);
             omega[y] = latlong_row_solid_angle(y, w, h);
-            lat[y] = lat_integrals(1.0 - double(y + 1) / h, 1.0 - double(y) / h);
         }
     }
     // Engine-space direction of texel (x, y).
@@ -501,9 +497,10 @@ namespace {
 
 // A bin row's SH9 (BinReduction::row): its bins' power and vectors (the
 // integrals of L and L w, engine space) and the band-2 sums t of
-// kernel::sh9_band2_fn, with x = c cos phi, y = s, z = -c sin phi as in
-// sh9_rect_integral: xx = sum q pcc, pcc = p0 / 2 + h2; zz = sum q (p0 - pcc);
-// yy = p0 sum cs2; xy = sum cc1 h0; yz = -sum cc1 h1; xz = -sum q h3.
+// kernel::sh9_band2_fn, with x = c cos phi, y = s, z = -c sin phi (engine
+// space, c = sqrt(1 - s^2); the basis of math/sh.h): xx = sum q pcc,
+// pcc = p0 / 2 + h2; zz = sum q (p0 - pcc); yy = p0 sum cs2; xy = sum cc1 h0;
+// yz = -sum cc1 h1; xz = -sum q h3.
 std::array<Sh9, 3> bin_row_sh9(const Bin* bins, int bw, const double (*t)[6], double p0) {
     std::array<Sh9, 3> out;
     for (int c = 0; c < 3; ++c) {
@@ -646,122 +643,41 @@ std::array<Sh9, 3> sum_sh9_rows(const std::vector<std::array<Sh9, 3>>& rows) {
     return sum;
 }
 
-namespace {
-
-// The first n columns of a width-w row: t[0..3][x] = a1 (cos, sin) phi_x
-// and a2 (cos, sin) 2 phi_x, phi_x column x's centre longitude: the SH9's
-// longitude tables, which differ only in what a column's profile (a box or
-// a tent) makes of frequencies 1 and 2.
-void phase_tables(int w, int n, double a1, double a2, std::vector<double> (&t)[4]) {
-    for (auto& v : t) v.resize(size_t(n));
-    for (int x = 0; x < n; ++x) {
-        const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
-        t[0][x] = a1 * std::cos(phi);
-        t[1][x] = a1 * std::sin(phi);
-        t[2][x] = a2 * std::cos(2.0 * phi);
-        t[3][x] = a2 * std::sin(2.0 * phi);
-    }
-}
-
-}  // namespace
-
+// Column x's full-hat longitude integrals against frequencies 1 and 2 in
+// closed form: a tent of width 2 p0 centred on phi_x (column x's centre
+// longitude) has the Fourier transform p0 sinc^2(k p0 / 2), so
+// h = a1 (cos, sin) phi_x and a2 (cos, sin) 2 phi_x with a1 = p0 sinc^2(p0 / 2),
+// a2 = p0 sinc^2(p0) / 2.
 double kernel::sh9_hat_tables(int w, std::vector<double> (&h)[4]) {
     const double p0 = 2.0 * kPi / w;
     auto sinc2 = [](double t) {
         const double s = std::sin(t) / t;
         return s * s;
     };
-    phase_tables(w, w, p0 * sinc2(0.5 * p0), 0.5 * p0 * sinc2(p0), h);
+    const double a1 = p0 * sinc2(0.5 * p0), a2 = 0.5 * p0 * sinc2(p0);
+    for (auto& v : h) v.resize(size_t(w));
+    for (int x = 0; x < w; ++x) {
+        const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
+        h[0][x] = a1 * std::cos(phi);
+        h[1][x] = a1 * std::sin(phi);
+        h[2][x] = a2 * std::cos(2.0 * phi);
+        h[3][x] = a2 * std::sin(2.0 * phi);
+    }
     return p0;
 }
 
-double kernel::sh9_quarter_tables(int w, std::vector<double> (&q)[4]) {
-    // lon_integrals' cos, sin, cos^2 - p0 / 2 and sin cos integrals in
-    // closed form (no difference of nearby sines): over a column of width
-    // p0 centred on phi, 2 sin(p0 / 2) (cos phi, sin phi) and
-    // sin(p0) / 2 (cos 2 phi, sin 2 phi).
-    const double p0 = 2.0 * kPi / w;
-    phase_tables(w, w / 4, 2.0 * std::sin(0.5 * p0), 0.5 * std::sin(p0), q);
-    return p0;
-}
-
-namespace {
-
-// The SH9 projection row by row: row(y) is independent of every other row;
-// total() sums them in a fixed order (the same for any thread count).
-class Sh9Rows {
-public:
-    Sh9Rows(const LatLongTables& tab, int w, int h)
-        : tab_(tab), w_(w), rows_(h), row_sums_(kernel::sh9_row_fn()), quarter_sums_(kernel::sh9_row_quarter_fn()) {
-        if (w % 4 == 0) {  // the quarter tables (kernel::sh9_row_quarter_fn)
-            p0_ = kernel::sh9_quarter_tables(w, wq_);
-            for (int k = 0; k < 4; ++k) wqp_[k] = wq_[k].data();
-            return;
-        }
-        // The six longitude integrals per column, structure-of-arrays.
-        for (auto& v : wl_) v.resize(w);
-        for (int x = 0; x < w; ++x) {
-            const LonIntegrals& l = tab.lon[x];
-            wl_[0][x] = l.p0; wl_[1][x] = l.pc; wl_[2][x] = l.ps;
-            wl_[3][x] = l.pcc; wl_[4][x] = l.pss; wl_[5][x] = l.psc;
-        }
-        for (int k = 0; k < 6; ++k) wlp_[k] = wl_[k].data();
-    }
-    // The basis integrals are linear in the longitude integrals, so a row's
-    // projection is sh9_rect_integral of the radiance-weighted sums of them:
-    // 18 dot products per row (or 15 over a quarter of the row's columns), in
-    // fixed lanes (kernel::sh9_row_fn and sh9_row_quarter_fn, built for the
-    // CPU's vectors).
-    void row(const float* px, int y) {
-        double t[3][6];
-        if (p0_ > 0.0) quarter_sums_(px, w_, wqp_, p0_, t);
-        else row_sums_(px, w_, wlp_, t);
-        for (int c = 0; c < 3; ++c)
-            rows_[y][c] = sh9_rect_integral(LonIntegrals{t[c][0], t[c][1], t[c][2], t[c][3], t[c][4], t[c][5]}, tab_.lat[y]);
-    }
-    std::array<Sh9, 3> total() const { return sum_sh9_rows(rows_); }
-    std::vector<std::array<Sh9, 3>> take_rows() { return std::move(rows_); }
-
-private:
-    const LatLongTables& tab_;
-    int w_;
-    std::vector<double> wl_[6], wq_[4];
-    const double* wlp_[6] = {};
-    const double* wqp_[4] = {};
-    double p0_ = 0.0;  // > 0: a width of 4 n, the quarter tables
-    std::vector<std::array<Sh9, 3>> rows_;
-    kernel::Sh9RowFn row_sums_;
-    kernel::Sh9QuarterFn quarter_sums_;
-};
-
-}  // namespace
-
-std::array<Sh9, 3> project_sh9(ImageView img) {
-    const LatLongTables tab(img.width, img.height);
-    Sh9Rows sh(tab, img.width, img.height);
-    parallel_for(0, img.height, [&](int y) { sh.row(img.at(0, y), y); });
-    return sh.total();
-}
-
-SourceSummary summarize_source(ImageView img, bool sh9) {
+SourceSummary summarize_source(ImageView img) {
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
-    std::optional<Sh9Rows> sh;
-    if (sh9) sh.emplace(tab, w, h);
     SourceSummary out;
     out.hot = sized_hot_rows(h);
     std::vector<SourceScan> scans(h);
     parallel_for(0, h, [&](int y) {
         const float* row = img.at(0, y);
         scan_row(row, w, scans[y]);
-        if (sh) sh->row(row, y);
         hot_row(row, w, y, tab, out.hot);
     });
     out.scan = combine_scans(scans);
-    if (sh) {
-        out.sh9 = sh->total();
-        out.sh9_rows = sh->take_rows();
-    }
     return out;
 }
 
@@ -770,28 +686,17 @@ void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int
     const int w = img.width, h = img.height;
     const LatLongTables tab(w, h);
     for (int y : rows) hot_row(img.at(0, y), w, y, tab, s.hot);
-    if (s.sh9_rows.empty()) return;  // summarized without SH9
-    Sh9Rows sh(tab, w, h);
-    for (int y : rows) sh.row(img.at(0, y), y);
-    std::vector<std::array<Sh9, 3>> fresh = sh.take_rows();
-    for (int y : rows) s.sh9_rows[y] = fresh[y];
-    s.sh9 = sum_sh9_rows(s.sh9_rows);
 }
 
 struct SummaryStream::Impl {
     int w, h;
     LatLongTables tab;
-    std::optional<Sh9Rows> sh;
     HotRows hot;
     std::vector<SourceScan> scans;
-    Impl(int width, int height, bool sh9)
-        : w(width), h(height), tab(width, height), hot(sized_hot_rows(height)), scans(height) {
-        if (sh9) sh.emplace(tab, width, height);
-    }
+    Impl(int width, int height) : w(width), h(height), tab(width, height), hot(sized_hot_rows(height)), scans(height) {}
 };
 
-SummaryStream::SummaryStream(int width, int height, bool sh9)
-    : impl_(std::make_unique<Impl>(width, height, sh9)) {}
+SummaryStream::SummaryStream(int width, int height) : impl_(std::make_unique<Impl>(width, height)) {}
 SummaryStream::~SummaryStream() = default;
 
 void SummaryStream::add_rows(float* const* rows, int y0, int n, HotStream* hots, const uint16_t* halves) {
@@ -806,7 +711,6 @@ void SummaryStream::add_rows(float* const* rows, int y0, int n, HotStream* hots,
         s = SourceScan{};
         scan_row(row, m.w, s);
         if (s.bad.pixels) clean_values(row, row, size_t(m.w) * 3);
-        if (m.sh) m.sh->row(row, y);
         hot_row(row, m.w, y, m.tab, m.hot);
         if (hots) hots->add_row(k, row, m.hot.top[y]);
     });
@@ -817,10 +721,6 @@ SourceSummary SummaryStream::finish() {
     Impl& m = *impl_;
     SourceSummary out;
     out.scan = combine_scans(m.scans);
-    if (m.sh) {
-        out.sh9 = m.sh->total();
-        out.sh9_rows = m.sh->take_rows();
-    }
     out.hot = std::move(m.hot);
     return out;
 }

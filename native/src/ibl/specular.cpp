@@ -410,20 +410,12 @@ kernel::IrrSumFn kernel::irr_sum_fn() {
     return IBLBAKE_BY_ISA(irr_sum);
 }
 
-kernel::Sh9RowFn kernel::sh9_row_fn() {
-    return IBLBAKE_BY_ISA(sh9_row);
-}
-
 kernel::RowPiecesFn kernel::row_pieces_fn() {
     return IBLBAKE_BY_ISA(row_pieces);
 }
 
 kernel::Sh9Band2Fn kernel::sh9_band2_fn() {
     return IBLBAKE_BY_ISA(sh9_band2);
-}
-
-kernel::Sh9QuarterFn kernel::sh9_row_quarter_fn() {
-    return IBLBAKE_BY_ISA(sh9_row_quarter);
 }
 
 const char* specular_kernel_isa() { return kIsaNames[isa_choice().load()]; }

@@ -40,21 +40,6 @@ void sums_avx2(const float* const* fields, size_t count, int lobes, const float*
 void sums_avx512(const float* const* fields, size_t count, int lobes, const float* a2, const float* dirs, int texels,
                  double (*num)[kMaxLobes][3]);
 
-// One lat-long row's radiance-weighted longitude integrals for the SH9
-// projection (source.cpp): t[c][k] = sum over x of row[3 x + c] wl[k][x],
-// for the six longitude terms k, in fixed lanes (the same order for every
-// instruction set; only FMA rounding differs).
-using Sh9RowFn = void (*)(const float* row, int width, const double* const* wl, double (*t)[6]);
-void sh9_row_baseline(const float* row, int width, const double* const* wl, double (*t)[6]);
-void sh9_row_avx2(const float* row, int width, const double* const* wl, double (*t)[6]);
-void sh9_row_avx512(const float* row, int width, const double* const* wl, double (*t)[6]);
-// The same from a quarter of the tables, for a width divisible by 4
-// (row_kernels_impl.h): q[0..3] the first n = width / 4 columns' cos, sin,
-// cos^2 less p0 / 2 and sin cos integrals, p0 a column's width in phi.
-using Sh9QuarterFn = void (*)(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
-void sh9_row_quarter_baseline(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
-void sh9_row_quarter_avx2(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
-void sh9_row_quarter_avx512(const float* row, int width, const double* const* q, double p0, double (*t)[6]);
 // A bin row's five column sums over its row pieces (source.cpp's
 // add_row_pieces), the whole blocks of 32 columns; returns the first column
 // not summed. The same bits for every instruction set (no FMA).
@@ -85,9 +70,6 @@ Sh9Band2Fn sh9_band2_fn();
 // (cos, sin) phi_x and p0 k2 / 2 (cos, sin) 2 phi_x; returns p0 (source.cpp).
 double sh9_hat_tables(int width, std::vector<double> (&h)[4]);
 
-// The quarter tables of a width divisible by 4 (q[k] resized to width / 4);
-// returns p0 (source.cpp).
-double sh9_quarter_tables(int width, std::vector<double> (&q)[4]);
 
 // Lat-long coordinates of a cube face row's texel centres, in source texel
 // units as latlong_bilinear takes them (fx = u w - 0.5 with u wrapped to
@@ -117,10 +99,6 @@ double irr_sum_avx512(const float*, const float*, const float*, const float*, si
 IrrHorizonFn irr_horizon_fn();
 IrrSumFn irr_sum_fn();
 
-// These for the instruction set the specular kernel runs with
-// (specular_kernel_isa(), IBLBAKE_ISA).
-Sh9RowFn sh9_row_fn();
-Sh9QuarterFn sh9_row_quarter_fn();
 
 // One level of the specular traversal (specular.cpp's gather_bins) in lanes:
 // for the n nodes cur[0..n) of a level (nodes: 16 floats each, BinNode's

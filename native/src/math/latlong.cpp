@@ -2,8 +2,6 @@
 
 #include <algorithm>
 
-#include "iblbake/math/sh.h"
-
 namespace iblbake {
 
 LonIntegrals lon_integrals(double u0, double u1) {
@@ -33,19 +31,6 @@ LatIntegrals lat_integrals(double v0, double v1) {
 Vec3d rect_moment(const LonIntegrals& lon, const LatIntegrals& lat) {
     // Engine w = (cos(lat) cos(phi), s, -cos(lat) sin(phi)).
     return {lon.pc * lat.c0, lon.p0 * lat.s1, -lon.ps * lat.c0};
-}
-
-Sh9 sh9_rect_integral(const LonIntegrals& lon, const LatIntegrals& lat) {
-    // x = c cos(phi), y = s, z = -c sin(phi), c = sqrt(1 - s^2).
-    return {0.282095 * lon.p0 * lat.s0,
-            0.488603 * lon.p0 * lat.s1,
-            0.488603 * -lon.ps * lat.c0,
-            0.488603 * lon.pc * lat.c0,
-            1.092548 * lon.pc * lat.c1,
-            1.092548 * -lon.ps * lat.c1,
-            0.315392 * (3.0 * lon.pss * lat.q - lon.p0 * lat.s0),
-            1.092548 * -lon.psc * lat.q,
-            0.546274 * (lon.pcc * lat.q - lon.p0 * lat.s2)};
 }
 
 std::vector<OverlayPiece> overlay_partitions(int n_a, int n_b) {

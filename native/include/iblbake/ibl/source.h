@@ -167,38 +167,32 @@ std::vector<Bin> reduce_rest_to_bins(ImageView img, const HotSplit& split, int b
 // Takes the hot texels' gifts out of bw x bh bins of an img_w x img_h image.
 void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, const HotSplit& split);
 
-// Per channel, the 9 SH coefficients of the radiance (SPEC.md section 5):
-// every texel's exact basis integral (texel-constant radiance), in double.
-std::array<Sh9, 3> project_sh9(ImageView img);
-// The same of SPEC's L, the bilinear reconstruction: what the bake reports.
+// Per channel, the 9 SH coefficients (SPEC.md section 5) of SPEC's L, the
+// bilinear reconstruction: what the bake reports.
 // Summed bin row by bin row of the bins BinReduction(img, w, w / 2) makes,
 // w = max(2, bw), in row order; a BinRowStream of that width over the same
 // rows gives the same bits (its sh9()), and so does build_bin_tree's
 // (BinTreeOptions::sh9). Exact for any L whose SH9 is band-limited to
-// band 2 in each row's bilinear pieces; it differs from project_sh9 by
-// the difference of the two reconstructions.
+// band 2 in each row's bilinear pieces (the longitude hats' integrals in
+// closed form, kernel::sh9_hat_tables).
 std::array<Sh9, 3> project_sh9_bilinear(ImageView img, int bw);
 // The sum of per-row projections, in row order.
 std::array<Sh9, 3> sum_sh9_rows(const std::vector<std::array<Sh9, 3>>& rows);
 
-// scan_source, project_sh9 and hot_rows in one pass over the rows: each row
-// is read from memory once and used three times while in cache (the three
-// passes of a 400 MB source are memory-bound). The results are those of the
-// three functions; sh9 and hot rows describe the source as it is, so a
-// source the scan finds bad (or past the overflow guard) needs them again
-// once cleaned: refresh_summary_rows redoes the bad rows alone.
+// scan_source and hot_rows in one pass over the rows: each row is read from
+// memory once and used twice while in cache (the passes of a 400 MB source
+// are memory-bound). The results are those of the two functions; the hot
+// rows describe the source as it is, so a source the scan finds bad (or
+// past the overflow guard) needs them again once cleaned:
+// refresh_summary_rows redoes the bad rows alone.
 struct SourceSummary {
     SourceScan scan;
-    std::array<Sh9, 3> sh9;
     HotRows hot;
-    std::vector<std::array<Sh9, 3>> sh9_rows;  // each row's projection; sh9 is their sum in row order
 };
-// sh9 false: sh9 left 0 and sh9_rows empty (the bake takes the bilinear
-// SH9 from the bins), the rest the same.
-SourceSummary summarize_source(ImageView img, bool sh9 = true);
+SourceSummary summarize_source(ImageView img);
 // After the rows `rows` of the source changed (cleaned), with every other
-// row as summarized: those rows' SH9 and hot-row sums again from `img`, and
-// the totals. Equal to the bit to project_sh9(img) and hot_rows(img).
+// row as summarized: those rows' hot-row sums again from `img`. Equal to
+// the bit to hot_rows(img).
 void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int>& rows);
 
 // summarize_source() and the cleaning, as a source is decoded in bands
@@ -211,7 +205,7 @@ void refresh_summary_rows(SourceSummary& s, ImageView img, const std::vector<int
 // scan() and sanitize() when the overflow guard is off.
 class SummaryStream {
 public:
-    SummaryStream(int width, int height, bool sh9 = true);  // sh9: as summarize_source's
+    SummaryStream(int width, int height);
     ~SummaryStream();
     SummaryStream(const SummaryStream&) = delete;
     SummaryStream& operator=(const SummaryStream&) = delete;

@@ -37,10 +37,4 @@ inline double sh9_irradiance(const Sh9& coeffs, const Vec3d& n) {
     return sum;
 }
 
-struct LonIntegrals;
-struct LatIntegrals;
-// Exact integral of the nine basis functions over a lat-long rectangle
-// (math/latlong.h), in engine space.
-Sh9 sh9_rect_integral(const LonIntegrals& lon, const LatIntegrals& lat);
-
 }  // namespace iblbake
