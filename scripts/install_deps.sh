@@ -38,6 +38,8 @@ BLENDER=(blender blender-data)
 GUI=(xvfb xauth imagemagick xdotool)  # the panel's test in a real window (tests/gui)
 # docs/farm.md's sbatch array on a one-node Slurm (tests/farm, CTest farm_slurm, run as root)
 FARM=(munge slurmctld slurmd slurm-client)
+# The bake on emulated AVX2 and plain x86-64 CPUs (tests/cpu, CTest cpu_emulated)
+CPUS=(qemu-user)
 EXPORT=(libzstd-dev python3-zstandard)
 # scripts/package.sh and check_wheels.sh: Debian chroots; the wheels read by pip and python3-wheel
 PACKAGING=(debootstrap zstd binutils python3-pip python3-wheel)
@@ -48,7 +50,7 @@ BROWSER=(chromium)
 command -v npm >/dev/null 2>&1 || BROWSER+=(nodejs npm)
 
 PACKAGES=("${BUILD[@]}" "${LIBS[@]}" "${HOSTILE[@]}" "${PYTHON[@]}" "${TESTS[@]}" "${BENCH[@]}" "${BLENDER[@]}" "${GUI[@]}"
-          "${FARM[@]}" "${EXPORT[@]}" "${PACKAGING[@]}" "${BROWSER[@]}")
+          "${FARM[@]}" "${CPUS[@]}" "${EXPORT[@]}" "${PACKAGING[@]}" "${BROWSER[@]}")
 
 missing=()
 for p in "${PACKAGES[@]}"; do
