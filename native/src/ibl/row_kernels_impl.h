@@ -23,7 +23,7 @@ namespace iblbake {
 namespace kernel {
 
 namespace {
-typedef double Rgb8d __attribute__((vector_size(64)));  // eight doubles: one zmm on AVX-512
+typedef double V8d __attribute__((vector_size(64)));  // eight doubles: one zmm on AVX-512
 }  // namespace
 
 // A bin row's five column sums (source.cpp's add_row_pieces), the whole
@@ -90,7 +90,6 @@ __attribute__((optimize("fp-contract=off"))) void IBLBAKE_ROW_KERNEL(sh9_band2)(
                                                                                 const double* cc1,
                                                                                 const double* const* h, size_t width,
                                                                                 double (*t)[6]) {
-    typedef Rgb8d V8d;
     typedef long long V8l __attribute__((vector_size(64)));
     V8d acc[6][3];
     for (auto& a : acc)

@@ -643,25 +643,20 @@ std::array<Sh9, 3> sum_sh9_rows(const std::vector<std::array<Sh9, 3>>& rows) {
     return sum;
 }
 
-// Column x's full-hat longitude integrals against frequencies 1 and 2 in
-// closed form: a tent of width 2 p0 centred on phi_x (column x's centre
-// longitude) has the Fourier transform p0 sinc^2(k p0 / 2), so
-// h = a1 (cos, sin) phi_x and a2 (cos, sin) 2 phi_x with a1 = p0 sinc^2(p0 / 2),
-// a2 = p0 sinc^2(p0) / 2.
 double kernel::sh9_hat_tables(int w, std::vector<double> (&h)[4]) {
     const double p0 = 2.0 * kPi / w;
     auto sinc2 = [](double t) {
         const double s = std::sin(t) / t;
         return s * s;
     };
-    const double a1 = p0 * sinc2(0.5 * p0), a2 = 0.5 * p0 * sinc2(p0);
+    const double k1 = p0 * sinc2(0.5 * p0), k2 = 0.5 * p0 * sinc2(p0);
     for (auto& v : h) v.resize(size_t(w));
     for (int x = 0; x < w; ++x) {
         const double phi = (0.5 - (x + 0.5) / w) * 2.0 * kPi;
-        h[0][x] = a1 * std::cos(phi);
-        h[1][x] = a1 * std::sin(phi);
-        h[2][x] = a2 * std::cos(2.0 * phi);
-        h[3][x] = a2 * std::sin(2.0 * phi);
+        h[0][x] = k1 * std::cos(phi);
+        h[1][x] = k1 * std::sin(phi);
+        h[2][x] = k2 * std::cos(2.0 * phi);
+        h[3][x] = k2 * std::sin(2.0 * phi);
     }
     return p0;
 }
