@@ -9,6 +9,7 @@
 #include <limits>
 #include <iterator>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "iblbake/bake/lut_cache.h"
@@ -86,6 +87,57 @@ TEST(Bake, WritesEveryFileTheManifestNames) {
     EXPECT_EQ(irr.image.height, 24);
     // No staging folders left behind.
     for (const auto& e : fs::directory_iterator(dir)) EXPECT_EQ(e.path().filename().string().find(".out"), std::string::npos);
+}
+
+// A library run hashes each world for its content hash and hands that
+// digest to bake_file, which gives it to the manifest while the file keeps
+// the stamp it had then (before and after decoding) and hashes it again
+// otherwise. A marker digest shows which one the manifest got. Both the
+// whole-image (64 x 32) and the streamed (1024 x 512) bake.
+TEST(Bake, CallersDigestIsUsedWhileTheFileKeepsItsStamp) {
+    for (const int w : {64, 1024}) {
+        SCOPED_TRACE(w);
+        const fs::path dir = temp_dir("digest");
+        const fs::path src = write_source(dir, ref::random_smooth_source(w, w / 2, 3));
+        const BakePlan plan = make_plan(small_options(), {});
+        auto bake = [&](const io::FileDigest* d, const ProgressFn& progress = {}) {
+            return bake_file(src.string(), dir / "out", plan, progress, nullptr, d)["source"]["sha256"]
+                .get<std::string>();
+        };
+        const std::string truth = io::sha256_file(src.string());
+        // Written a moment ago: a change in the same clock tick would keep the stamp.
+        EXPECT_FALSE(io::sha256_file_stamped(src.string()).stamp);
+        std::this_thread::sleep_for(std::chrono::milliseconds(150));
+        const io::FileDigest d = io::sha256_file_stamped(src.string());
+        ASSERT_TRUE(d.stamp);
+        EXPECT_EQ(d.sha256, truth);
+        EXPECT_EQ(io::stamp_of(src.string()), d.stamp);
+
+        io::FileDigest marked = d;
+        marked.sha256 = std::string(64, 'a');
+        EXPECT_EQ(bake(&marked), marked.sha256);  // reused: not hashed again
+        EXPECT_EQ(bake(nullptr), truth);
+        io::FileDigest other = marked;
+        other.stamp->mtime_ns += 1;
+        EXPECT_EQ(bake(&other), truth);
+        io::FileDigest racy = marked;
+        racy.stamp.reset();
+        EXPECT_EQ(bake(&racy), truth);
+        // Touched while it is decoded: the stamp after decoding differs.
+        bool touched = false;
+        EXPECT_EQ(bake(&marked,
+                       [&](const std::string&, double) {
+                           if (!touched) fs::last_write_time(src, fs::last_write_time(src) - std::chrono::hours(1));
+                           touched = true;
+                           return true;
+                       }),
+                  truth);
+        EXPECT_TRUE(touched);
+        // Rewritten since it was hashed: its new bytes' digest.
+        write_source(dir, ref::random_smooth_source(w, w / 2, 4));
+        EXPECT_EQ(bake(&marked), io::sha256_file(src.string()));
+        EXPECT_NE(io::sha256_file(src.string()), truth);
+    }
 }
 
 TEST(Bake, FailedBakeKeepsEarlierOne) {

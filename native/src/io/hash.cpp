@@ -7,6 +7,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <time.h>
+
+#include <algorithm>
 #include <cerrno>
 #include <memory>
 #include <stdexcept>
@@ -34,17 +37,30 @@ struct Digest {
 };
 }  // namespace
 
-std::string sha256_file(const std::string& path) {
-    // Opened without blocking and checked before any read: a FIFO (whose
-    // open would wait for a writer) or a device (/dev/zero never ends) is
-    // refused at once. Bakes hash their source beside its decoding, before
-    // the reader has said what the path is.
-    const int fd = open_regular_file(path);
-    if (fd < 0) throw std::runtime_error("cannot hash '" + path + "': not a readable regular file");
-    struct Closer {
-        int fd;
-        ~Closer() { ::close(fd); }
-    } closer{fd};
+namespace {
+FileStamp stamp_from(const struct stat& st) {
+    FileStamp s;
+    s.dev = uint64_t(st.st_dev);
+    s.ino = uint64_t(st.st_ino);
+    s.size = int64_t(st.st_size);
+    s.mtime_ns = int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
+    s.ctime_ns = int64_t(st.st_ctim.tv_sec) * 1000000000 + st.st_ctim.tv_nsec;
+    return s;
+}
+
+int64_t now_ns() {
+    struct timespec t {};
+    ::clock_gettime(CLOCK_REALTIME, &t);
+    return int64_t(t.tv_sec) * 1000000000 + t.tv_nsec;
+}
+
+// A change this close before the hashing began may share the clock tick
+// (file times come from the kernel's coarse clock, a few ms a tick) of a
+// later change that would then leave the stamp unchanged.
+constexpr int64_t kRacyNs = 100000000;  // 0.1 s
+
+// The sha256 of the open file fd (from where it stands to its end).
+std::string hash_fd(int fd, const std::string& path) {
     Digest d;
     // 128 KB at a time, not zeroed first: files are hashed while a bake is at
     // its largest (beside the reading of its source, in the writer's tasks).
@@ -60,6 +76,47 @@ std::string sha256_file(const std::string& path) {
         d.update(buf.get(), size_t(got));
     }
     return d.hex();
+}
+
+struct Fd {
+    int fd;
+    ~Fd() { ::close(fd); }
+};
+
+// Opened without blocking and checked before any read: a FIFO (whose
+// open would wait for a writer) or a device (/dev/zero never ends) is
+// refused at once. Bakes hash their source beside its decoding, before
+// the reader has said what the path is.
+int open_to_hash(const std::string& path) {
+    const int fd = open_regular_file(path);
+    if (fd < 0) throw std::runtime_error("cannot hash '" + path + "': not a readable regular file");
+    return fd;
+}
+}  // namespace
+
+std::optional<FileStamp> stamp_of(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+    return stamp_from(st);
+}
+
+std::string sha256_file(const std::string& path) {
+    const Fd f{open_to_hash(path)};
+    return hash_fd(f.fd, path);
+}
+
+FileDigest sha256_file_stamped(const std::string& path) {
+    const int64_t began = now_ns();
+    const Fd f{open_to_hash(path)};
+    struct stat before {}, after {};
+    const bool stat_before = ::fstat(f.fd, &before) == 0;
+    FileDigest out;
+    out.sha256 = hash_fd(f.fd, path);
+    if (stat_before && ::fstat(f.fd, &after) == 0) {
+        const FileStamp a = stamp_from(before), b = stamp_from(after);
+        if (a == b && std::max(a.mtime_ns, a.ctime_ns) < began - kRacyNs) out.stamp = a;
+    }
+    return out;
 }
 
 std::string sha256_bytes(const void* data, size_t size) {

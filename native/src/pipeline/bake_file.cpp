@@ -81,7 +81,7 @@ BakeOptions with_reader_warnings(const BakeOptions& plan_options, const std::vec
 }  // namespace
 
 nlohmann::json bake_file(const std::string& source_path, const std::filesystem::path& outdir, const BakePlan& plan,
-                         const ProgressFn& progress, LutCache* lut_cache) {
+                         const ProgressFn& progress, LutCache* lut_cache, const io::FileDigest* hashed) {
     // The plan checked the bake options and the presets when it was made.
     plan.write.validate();
     io::check_replaceable(outdir, source_path);  // before any work: nothing to lose later
@@ -97,12 +97,23 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
             reached = std::max(reached, f);
             return progress(stage, reached);
         };
+    // The source's sha256: the caller's when the file still has the stamp it
+    // had when the caller hashed it (checked again once it is decoded),
+    // else hashed here, beside the decoding.
+    const bool may_reuse = hashed && hashed->stamp && io::stamp_of(source_path) == hashed->stamp;
+    auto hash_source = [&] {
+        if (!may_reuse) src.sha256 = io::sha256_file(source_path);
+    };
+    auto settle_hash = [&] {
+        if (!may_reuse) return;
+        src.sha256 = io::stamp_of(source_path) == hashed->stamp ? hashed->sha256 : io::sha256_file(source_path);
+    };
     // The file's sha256 and the writer's staging folder, on a task of their
     // own while the source decodes: the decoder's threads leave gaps (its
     // last blocks), and neither needs the pixels. One thread asked for: in turn.
     std::unique_ptr<BakeWriter> writer;
     auto side_work = [&] {
-        src.sha256 = io::sha256_file(source_path);
+        hash_source();
         // Every SPEC file is written as soon as its output is made, while the bake goes on.
         writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
     };
@@ -128,9 +139,12 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
         const BakeOptions o = with_reader_warnings(plan.bake, rows.reader().warnings());
         writer = std::make_unique<BakeWriter>(outdir, plan, progress, lut_cache);
         std::optional<BakeResult> r;
-        beside(plan.bake.threads == 1, [&] { src.sha256 = io::sha256_file(source_path); },
+        beside(plan.bake.threads == 1, hash_source,
                [&] { r = compute_bake_stream(rows, o, monotone, lut_cache, writer.get()); });
-        if (r) return writer->finish(*r, src);
+        if (r) {
+            settle_hash();
+            return writer->finish(*r, src);
+        }
         // Values of 2^64 and more: the overflow guard scales the whole source (nothing written yet).
         streamed.reset();
     }
@@ -147,6 +161,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
     const BakeOptions o = with_reader_warnings(plan.bake, loaded.warnings);
     BakeResult r = compute_bake(std::move(loaded.image), o, monotone, lut_cache, writer.get());
     r.timings.insert(r.timings.begin(), {"read", read_seconds});  // reading and hashing the file
+    settle_hash();
     return writer->finish(r, src);
 }
 

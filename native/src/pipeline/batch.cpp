@@ -409,8 +409,10 @@ std::vector<Entry> run_batch(const std::vector<World>& worlds, const fs::path& o
             if (!fs::is_regular_file(w.source, ec))
                 throw std::runtime_error(fs::exists(w.source, ec) ? "not a regular file: " + io::printable(w.source)
                                                                   : "no such file: " + io::printable(w.source));
-            const std::string sha = io::sha256_file(w.source);
-            e.content_hash = content_hash(sha, with_preview);
+            // Its stamp goes with it: bake_file gives the manifest this digest
+            // rather than hashing the file again, while the file keeps it.
+            const io::FileDigest digest = io::sha256_file_stamped(w.source);
+            e.content_hash = content_hash(digest.sha256, with_preview);
             stage("checking", 0.0);
             const std::optional<json> old = options.force ? std::nullopt : intact_manifest(dir);
             json m;
@@ -426,7 +428,7 @@ std::vector<Entry> run_batch(const std::vector<World>& worlds, const fs::path& o
                               stage(s, f);
                               return keep_going();
                           },
-                          options.lut_cache);
+                          options.lut_cache, &digest);
                 e.status = "baked";
             }
             if (m.contains("warnings") && m["warnings"].is_array())
