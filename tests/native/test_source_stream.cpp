@@ -180,6 +180,22 @@ TEST(BinRowStream, BandsEqualTheWholeImage) {
     EXPECT_GT(chroma, 0u) << "no bin of varying colour: the chroma rows went untested";
 }
 
+// A stream made without SH9 (the irradiance's own bins beside a tree's)
+// gives the same bins, and refuses to give an SH9.
+TEST(BinRowStream, WithoutSh9SameBins) {
+    const Image img = ref::random_smooth_source(128, 64, 9);
+    for (int finest : {2, 16, 64}) {
+        BinRowStream with(img.width, img.height, finest), without(img.width, img.height, finest, /*sh9=*/false);
+        with.add_rows(img, 0, img.height - 1);
+        without.add_rows(img, 0, img.height - 1);
+        EXPECT_NO_THROW(with.sh9());
+        EXPECT_THROW(without.sh9(), std::logic_error);
+        const std::vector<Bin> a = with.take_bins(), b = without.take_bins();
+        ASSERT_EQ(a.size(), b.size());
+        EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(Bin))) << finest;
+    }
+}
+
 // ibl::HotStream: the hot split from bands of rows equals split_hot's.
 namespace {
 

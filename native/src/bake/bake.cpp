@@ -1153,7 +1153,7 @@ struct BandReducers {
         b.irr_from_tree = irradiance_from_tree(b.o, need_tree, b.finest_bins);
         const StreamBins s = stream_bins(b);
         if (s.tree) bins = std::make_unique<BinRowStream>(w, h, s.tree);
-        if (s.irr) irr_bins = std::make_unique<BinRowStream>(w, h, s.irr);
+        if (s.irr) irr_bins = std::make_unique<BinRowStream>(w, h, s.irr, /*sh9=*/!bins);  // sh9()'s choice
         if (s.sh9) sh9_bins = std::make_unique<BinRowStream>(w, h, s.sh9);
         size_t mirror_jobs = 0;
         for (const LevelJob& job : b.jobs) mirror_jobs += job.roughness == 0.0;

@@ -429,9 +429,9 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep, 
     return tree;
 }
 
-BinRowStream::BinRowStream(int img_w, int img_h, int finest_w)
-    : w_(std::max(2, finest_w)), img_h_(img_h), red_(ImageView(nullptr, img_w, img_h), w_, w_ / 2, /*sh9=*/true),
-      bins_(size_t(w_) * (w_ / 2)), sh9_rows_(size_t(w_ / 2)), done_(w_ / 2, 0) {}
+BinRowStream::BinRowStream(int img_w, int img_h, int finest_w, bool sh9)
+    : w_(std::max(2, finest_w)), img_h_(img_h), red_(ImageView(nullptr, img_w, img_h), w_, w_ / 2, sh9),
+      bins_(size_t(w_) * (w_ / 2)), sh9_rows_(sh9 ? size_t(w_ / 2) : 0), done_(w_ / 2, 0) {}
 
 void BinRowStream::add_rows(ImageView img, int y0, int y1) {
     // Bin rows whose every source row is among y0..y1, not yet reduced.
@@ -443,7 +443,7 @@ void BinRowStream::add_rows(ImageView img, int y0, int y1) {
     }
     parallel_for(0, int(ready.size()), [&](int k) {
         const int br = ready[k];
-        red_.row(img, br, &bins_[size_t(br) * w_], &sh9_rows_[size_t(br)]);
+        red_.row(img, br, &bins_[size_t(br) * w_], sh9_rows_.empty() ? nullptr : &sh9_rows_[size_t(br)]);
         done_[br] = 1;
     });
 }
@@ -473,6 +473,7 @@ std::pair<int, int> BinRowStream::source_rows(int br) const { return red_.source
 
 std::array<Sh9, 3> BinRowStream::sh9() const {
     if (pending() != 0) throw std::logic_error("BinRowStream::sh9: bin rows whose source rows never came");
+    if (sh9_rows_.empty()) throw std::logic_error("BinRowStream::sh9: a stream made without SH9");
     return sum_sh9_rows(sh9_rows_);
 }
 

@@ -137,7 +137,8 @@ BinTree build_bin_tree(ImageView latlong, int finest_w, std::vector<Bin>* keep =
 // its own (one row of hat on each side).
 class BinRowStream {
 public:
-    BinRowStream(int img_w, int img_h, int finest_w);
+    // sh9 false: no SH9 per bin row (sh9() throws std::logic_error).
+    BinRowStream(int img_w, int img_h, int finest_w, bool sh9 = true);
     void add_rows(ImageView img, int y0, int y1);
     std::pair<int, int> source_rows(int br) const;  // first and last source row bin row br reads
     // The most rows one bin row reads: bands of B rows overlapping by
