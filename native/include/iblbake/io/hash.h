@@ -16,7 +16,6 @@ struct FileStamp {
     bool operator==(const FileStamp& o) const {
         return dev == o.dev && ino == o.ino && size == o.size && mtime_ns == o.mtime_ns && ctime_ns == o.ctime_ns;
     }
-    bool operator!=(const FileStamp& o) const { return !(*this == o); }
 };
 // The path's stamp (following links); none when it cannot be stat'ed.
 std::optional<FileStamp> stamp_of(const std::string& path);
