@@ -1,6 +1,7 @@
 // Source cleaning, the hot/rest split, vector reduction and SH projection.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -263,6 +264,44 @@ TEST(Source, BinReductionIsExactForAnySourceSize) {
             for (int bx = 0; bx < 8; ++bx) up2 += coarse[size_t(by) * 8 + bx].vector[0][1];
         EXPECT_NEAR(up2, kPi, 1e-9);
     }
+}
+
+TEST(Source, BinReductionGivesTheSameBitsInAnyColumnChunks) {
+    // BinReduction::row reduces a bin row a chunk of columns at a time. A
+    // source of two whole default chunks and a part that is not a multiple
+    // of 8 columns (the SH9 kernel's lanes), with a different value in every
+    // texel and channel: every chunk width gives the bins and SH9 of one
+    // chunk as wide as the row (the reduction before chunks).
+    const int w = 2605, h = 41, bw = 16;
+    Image img(w, h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c)
+                img.at(x, y)[c] = float(1.0 + 0.5 * std::sin(0.013 * x + c) + 0.3 * std::cos(0.37 * y) +
+                                        0.1 * ((x * 7919 + y * 104729 + c * 31) % 97) / 97.0);
+    auto reduce = [&](int chunk, std::vector<Bin>& bins, std::array<Sh9, 3>& sh9) {
+        const BinReduction red(img, bw, bw / 2, /*sh9=*/true, chunk);
+        bins.assign(size_t(bw) * (bw / 2), Bin{});
+        std::vector<std::array<Sh9, 3>> rows(size_t(bw / 2));
+        for (int br = 0; br < bw / 2; ++br) red.row(br, &bins[size_t(br) * bw], &rows[size_t(br)]);
+        sh9 = sum_sh9_rows(rows);
+    };
+    std::vector<Bin> whole_bins;
+    std::array<Sh9, 3> whole_sh9{};
+    reduce(2608, whole_bins, whole_sh9);  // one chunk
+    double power = 0.0;
+    for (const Bin& b : whole_bins) power += b.power[1];
+    EXPECT_GT(power, 4.0 * kPi);  // the values are above 1 almost everywhere: not an empty reduction
+    for (int chunk : {16, 48, 1024, BinReduction::kChunkColumns, 4096}) {
+        std::vector<Bin> bins;
+        std::array<Sh9, 3> sh9{};
+        reduce(chunk, bins, sh9);
+        ASSERT_EQ(bins.size(), whole_bins.size());
+        EXPECT_EQ(std::memcmp(bins.data(), whole_bins.data(), bins.size() * sizeof(Bin)), 0) << chunk;
+        EXPECT_EQ(std::memcmp(sh9.data(), whole_sh9.data(), sizeof(sh9)), 0) << chunk;
+    }
+    EXPECT_THROW(BinReduction(img, bw, bw / 2, false, 24), std::invalid_argument);
+    EXPECT_THROW(BinReduction(img, bw, bw / 2, false, 0), std::invalid_argument);
 }
 
 TEST(Source, TexelIntegralsMatchQuadrature) {

@@ -80,20 +80,20 @@ __attribute__((optimize("fp-contract=off"))) size_t IBLBAKE_ROW_KERNEL(row_piece
 }
 
 // A bin row's band-2 SH9 sums from its column sums (source.cpp's
-// BinReduction::row): per channel c, over the values i = 3 x + c,
-// t[c] = {sum cs2, sum q, sum q h2, sum q h3, sum cc1 h0, sum cc1 h1}, q =
-// cs0 - cs2, h[0..3] column x's full-hat longitude integrals (sh9_hat_tables).
-// Value i goes to lane i mod 24 (three vectors of 8 doubles per sum, each
-// lane one channel's), the lanes added in order at the end; no fused
-// multiply-add: every instruction set gives the same bits.
+// BinReduction::row), added into acc (specular_kernel.h): per channel c,
+// over the values i = 3 x + c, {sum cs2, sum q, sum q h2, sum q h3,
+// sum cc1 h0, sum cc1 h1}, q = cs0 - cs2, h[0..3] column x's full-hat
+// longitude integrals (sh9_hat_tables). Value i goes to lane i mod 24 (three
+// vectors of 8 doubles per sum, each lane one channel's); the caller adds
+// the lanes in order. No fused multiply-add: every instruction set gives
+// the same bits.
 __attribute__((optimize("fp-contract=off"))) void IBLBAKE_ROW_KERNEL(sh9_band2)(const double* cs0, const double* cs2,
                                                                                 const double* cc1,
                                                                                 const double* const* h, size_t width,
-                                                                                double (*t)[6]) {
+                                                                                double (*lanes)[24]) {
     typedef long long V8l __attribute__((vector_size(64)));
     V8d acc[6][3];
-    for (auto& a : acc)
-        for (V8d& v : a) v = V8d{};
+    std::memcpy(acc, lanes, sizeof(acc));
     auto add = [&](int b, const V8d* e, size_t i) {
         V8d a0, a2, c1;
         std::memcpy(&a0, cs0 + i, sizeof(a0));
@@ -129,12 +129,7 @@ __attribute__((optimize("fp-contract=off"))) void IBLBAKE_ROW_KERNEL(sh9_band2)(
         acc[4][b][l] += cc1[i] * h[0][x];
         acc[5][b][l] += cc1[i] * h[1][x];
     }
-    for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < 6; ++k) {
-            double s = 0.0;
-            for (int lane = c; lane < 24; lane += 3) s += acc[k][lane / 8][lane % 8];
-            t[c][k] = s;
-        }
+    std::memcpy(lanes, acc, sizeof(acc));
 }
 
 void IBLBAKE_ROW_KERNEL(mirror_row)(const double* frame, double b, int n, int w, int h, double* fx, double* fy) {

@@ -417,10 +417,23 @@ Image rest_image(ImageView img, const HotSplit& split) {
     return rest;
 }
 
-BinReduction::BinReduction(ImageView img, int bw, int bh, bool sh9)
-    : img_(img), bw_(std::max(1, bw)), bh_(std::max(1, bh)) {
+BinReduction::BinReduction(ImageView img, int bw, int bh, bool sh9, int chunk_columns)
+    : img_(img), bw_(std::max(1, bw)), bh_(std::max(1, bh)), chunk_(chunk_columns) {
+    // Whole SH9 lanes (8 columns) and row_pieces blocks (16 values) per chunk.
+    if (chunk_ < 16 || chunk_ % 16 != 0) throw std::invalid_argument("BinReduction: chunks of a multiple of 16 columns");
     cols_ = hat_pieces_lon(img.width, bw_);
     rows_ = hat_pieces_lat(img.height, bh_);  // t = 1 - v, from the top
+    // Column pieces grouped by the chunk of columns their texel lies in
+    // (row() reduces a bin row chunk by chunk), in their order within each.
+    // hat_pieces gives a bin's pieces in texel order, the wrapped ones too
+    // (bin 0 ends with the last texel, the last bin starts with texel 0), so
+    // every bin still adds its pieces in the same order.
+    const int chunks = (img.width + chunk_ - 1) / chunk_, chunk = chunk_;
+    std::stable_sort(cols_.begin(), cols_.end(),
+                     [chunk](const HatPiece& p, const HatPiece& q) { return p.texel / chunk < q.texel / chunk; });
+    chunk_first_.assign(size_t(chunks) + 1, cols_.size());
+    for (size_t k = cols_.size(); k-- > 0;) chunk_first_[size_t(cols_[k].texel / chunk_)] = k;
+    for (int c = chunks; c-- > 0;) chunk_first_[size_t(c)] = std::min(chunk_first_[size_t(c)], chunk_first_[size_t(c) + 1]);
     // Row pieces are sorted by bin row: bin rows are independent work.
     first_.assign(bh_ + 1, rows_.size());
     for (size_t k = rows_.size(); k-- > 0;) first_[rows_[k].bin] = k;
@@ -530,15 +543,22 @@ std::pair<int, int> BinReduction::source_rows(int br) const {
 }
 
 void BinReduction::row(ImageView img, int br, Bin* out, std::array<Sh9, 3>* sh9) const {
-    const size_t n = size_t(img_.width) * 3;
+    if (sh9 && hat_[0].empty()) throw std::logic_error("BinReduction::row: SH9 asked of a reduction made without it");
+    // Chunk by chunk of columns: a chunk's five column sums (120 KB by
+    // default) are weighed by the longitude hats and the SH9 tables while in
+    // L2 (a 16K row's, 2 MB, went out to L3 between being summed and read).
+    // Each column's sums, each bin's additions and each SH9 lane's are made
+    // in the same order as over the whole row: the same bits.
+    const int width = img_.width;
+    const size_t chunk_n = size_t(std::min(width, chunk_)) * 3;
     thread_local std::vector<double> col;
-    col.resize(5 * n);
+    col.resize(5 * chunk_n);
     double* cs0 = col.data();
-    double* cs1 = cs0 + n;
-    double* cs2 = cs1 + n;
-    double* cc0 = cs2 + n;
-    double* cc1 = cc0 + n;
-    thread_local std::vector<const float*> src;
+    double* cs1 = cs0 + chunk_n;
+    double* cs2 = cs1 + chunk_n;
+    double* cc0 = cs2 + chunk_n;
+    double* cc1 = cc0 + chunk_n;
+    thread_local std::vector<const float*> src, at;
     thread_local std::vector<double> w;  // five latitude terms per piece
     src.clear();
     w.clear();
@@ -547,19 +567,38 @@ void BinReduction::row(ImageView img, int br, Bin* out, std::array<Sh9, 3>* sh9)
         src.push_back(img.at(0, rp.texel));
         w.insert(w.end(), rp.w, rp.w + 5);
     }
-    if (src.empty()) std::fill(col.begin(), col.end(), 0.0);  // no row piece reaches this bin row
-    else add_row_pieces(src.data(), w.data(), src.size(), n, cs0, cs1, cs2, cc0, cc1);
+    at.resize(src.size());
     std::fill(out, out + bw_, Bin{});
+    double lanes[6][24] = {};
     const double one[3] = {1.0, 1.0, 1.0};
-    for (const HatPiece& cp : cols_) {
-        const size_t i = size_t(cp.texel) * 3;
-        add_hat_product(out[cp.bin], one, cs0 + i, cs1 + i, cs2 + i, cc0 + i, cc1 + i, cp.w);
+    for (size_t c = 0; c + 1 < chunk_first_.size(); ++c) {
+        const int x0 = int(c) * chunk_, x1 = std::min(width, x0 + chunk_);
+        const size_t n = size_t(x1 - x0) * 3;
+        if (src.empty()) {
+            std::fill(col.begin(), col.end(), 0.0);  // no row piece reaches this bin row
+        } else {
+            for (size_t p = 0; p < src.size(); ++p) at[p] = src[p] + size_t(x0) * 3;
+            add_row_pieces(at.data(), w.data(), at.size(), n, cs0, cs1, cs2, cc0, cc1);
+        }
+        for (size_t k = chunk_first_[c]; k < chunk_first_[c + 1]; ++k) {
+            const HatPiece& cp = cols_[k];
+            const size_t i = size_t(cp.texel - x0) * 3;
+            add_hat_product(out[cp.bin], one, cs0 + i, cs1 + i, cs2 + i, cc0 + i, cc1 + i, cp.w);
+        }
+        if (sh9) {
+            const double* h[4] = {hat_[0].data() + x0, hat_[1].data() + x0, hat_[2].data() + x0,
+                                  hat_[3].data() + x0};
+            kernel::sh9_band2_fn()(cs0, cs2, cc1, h, size_t(x1 - x0), lanes);
+        }
     }
     if (sh9) {
-        if (hat_[0].empty()) throw std::logic_error("BinReduction::row: SH9 asked of a reduction made without it");
-        const double* h[4] = {hat_[0].data(), hat_[1].data(), hat_[2].data(), hat_[3].data()};
         double t[3][6];
-        kernel::sh9_band2_fn()(cs0, cs2, cc1, h, size_t(img_.width), t);
+        for (int c = 0; c < 3; ++c)
+            for (int k = 0; k < 6; ++k) {
+                double s = 0.0;
+                for (int lane = c; lane < 24; lane += 3) s += lanes[k][lane];
+                t[c][k] = s;
+            }
         *sh9 = bin_row_sh9(out, bw_, t, p0_);
     }
 }

@@ -50,18 +50,23 @@ size_t row_pieces_avx2(const float* const* src, const double* w, size_t pieces, 
 size_t row_pieces_avx512(const float* const* src, const double* w, size_t pieces, size_t n, double* const* out);
 RowPiecesFn row_pieces_fn();
 
-// A bin row's band-2 SH9 sums from its five column sums (row_kernels_impl.h):
-// per channel {sum cs2, sum q, sum q h2, sum q h3, sum cc1 h0, sum cc1 h1},
-// q = cs0 - cs2, h = sh9_hat_tables' four tables of `width` columns. The
-// same bits for every instruction set (no FMA).
+// A bin row's band-2 SH9 sums from its five column sums (row_kernels_impl.h),
+// added into acc: value i (i = 3 x + c over `width` columns, channel c)
+// into lane i mod 24 of acc[k] for k in {cs2, q, q h2, q h3, cc1 h0,
+// cc1 h1}, q = cs0 - cs2, h = sh9_hat_tables' four tables from the first
+// column. A row may come in pieces of whole multiples of 8 columns (the
+// last of any width): each lane adds its values in the same order, so the
+// pieces give the bits of one call. The caller adds each channel's lanes
+// (c, c + 3, ..., c + 21) in order. The same bits for every instruction set
+// (no FMA).
 using Sh9Band2Fn = void (*)(const double* cs0, const double* cs2, const double* cc1, const double* const* h,
-                            size_t width, double (*t)[6]);
+                            size_t width, double (*acc)[24]);
 void sh9_band2_baseline(const double* cs0, const double* cs2, const double* cc1, const double* const* h, size_t width,
-                        double (*t)[6]);
+                        double (*acc)[24]);
 void sh9_band2_avx2(const double* cs0, const double* cs2, const double* cc1, const double* const* h, size_t width,
-                    double (*t)[6]);
+                    double (*acc)[24]);
 void sh9_band2_avx512(const double* cs0, const double* cs2, const double* cc1, const double* const* h, size_t width,
-                      double (*t)[6]);
+                      double (*acc)[24]);
 Sh9Band2Fn sh9_band2_fn();
 // Column x's longitude hat (SPEC's bilinear L: a tent of half-width p0 =
 // 2 pi / width about phi_x) integrated against cos phi, sin phi,

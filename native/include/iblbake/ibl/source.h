@@ -135,7 +135,11 @@ std::vector<Bin> reduce_to_bins(ImageView img, int bw, int bh, std::array<Sh9, 3
 // may be asked for their SH9 (the longitude hats' tables are made).
 class BinReduction {
 public:
-    BinReduction(ImageView img, int bw, int bh, bool sh9 = false);
+    // row() reduces chunk_columns columns at a time (a multiple of 16): any
+    // chunk gives the same bits; the default keeps a chunk's column sums,
+    // 120 KB, in L2.
+    static constexpr int kChunkColumns = 1024;
+    BinReduction(ImageView img, int bw, int bh, bool sh9 = false, int chunk_columns = kChunkColumns);
     int width() const { return bw_; }
     int height() const { return bh_; }
     // Bins (0..bw-1, br), overwritten; with sh9, also the bin row's part of
@@ -152,8 +156,10 @@ public:
 private:
     ImageView img_;
     int bw_, bh_;
-    std::vector<HatPiece> cols_, rows_;
+    std::vector<HatPiece> cols_, rows_;  // cols_ grouped by column chunk (row())
     std::vector<size_t> first_;  // first row piece of each bin row
+    int chunk_;                        // columns per chunk
+    std::vector<size_t> chunk_first_;  // first column piece of each chunk of columns
     std::vector<double> hat_[4];  // kernel::sh9_hat_tables (empty without sh9)
     double p0_ = 0.0;
 };
