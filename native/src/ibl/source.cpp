@@ -417,6 +417,19 @@ Image rest_image(ImageView img, const HotSplit& split) {
     return rest;
 }
 
+namespace {
+// Where each of `groups` groups starts in pieces ordered by group(piece):
+// groups + 1 indices, the last pieces.size(); an empty group starts where
+// the next one does.
+template <typename Group>
+std::vector<size_t> group_starts(const std::vector<HatPiece>& pieces, int groups, Group group) {
+    std::vector<size_t> first(size_t(groups) + 1, pieces.size());
+    for (size_t k = pieces.size(); k-- > 0;) first[size_t(group(pieces[k]))] = k;
+    for (int g = groups; g-- > 0;) first[size_t(g)] = std::min(first[size_t(g)], first[size_t(g) + 1]);
+    return first;
+}
+}  // namespace
+
 BinReduction::BinReduction(ImageView img, int bw, int bh, bool sh9, int chunk_columns)
     : img_(img), bw_(std::max(1, bw)), bh_(std::max(1, bh)), chunk_(chunk_columns) {
     // Whole SH9 lanes (8 columns) and row_pieces blocks (16 values) per chunk.
@@ -428,16 +441,12 @@ BinReduction::BinReduction(ImageView img, int bw, int bh, bool sh9, int chunk_co
     // hat_pieces gives a bin's pieces in texel order, the wrapped ones too
     // (bin 0 ends with the last texel, the last bin starts with texel 0), so
     // every bin still adds its pieces in the same order.
-    const int chunks = (img.width + chunk_ - 1) / chunk_, chunk = chunk_;
+    const auto chunk_of = [chunk = chunk_](const HatPiece& p) { return p.texel / chunk; };
     std::stable_sort(cols_.begin(), cols_.end(),
-                     [chunk](const HatPiece& p, const HatPiece& q) { return p.texel / chunk < q.texel / chunk; });
-    chunk_first_.assign(size_t(chunks) + 1, cols_.size());
-    for (size_t k = cols_.size(); k-- > 0;) chunk_first_[size_t(cols_[k].texel / chunk_)] = k;
-    for (int c = chunks; c-- > 0;) chunk_first_[size_t(c)] = std::min(chunk_first_[size_t(c)], chunk_first_[size_t(c) + 1]);
+                     [&](const HatPiece& p, const HatPiece& q) { return chunk_of(p) < chunk_of(q); });
+    chunk_first_ = group_starts(cols_, (img.width + chunk_ - 1) / chunk_, chunk_of);
     // Row pieces are sorted by bin row: bin rows are independent work.
-    first_.assign(bh_ + 1, rows_.size());
-    for (size_t k = rows_.size(); k-- > 0;) first_[rows_[k].bin] = k;
-    for (int r = bh_; r-- > 0;) first_[r] = std::min(first_[r], first_[r + 1]);
+    first_ = group_starts(rows_, bh_, [](const HatPiece& p) { return p.bin; });
     if (sh9) p0_ = kernel::sh9_hat_tables(img.width, hat_);
 }
 
