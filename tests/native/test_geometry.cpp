@@ -141,6 +141,34 @@ TEST(LatLong, RowSolidAnglesAreExact) {
     EXPECT_NEAR(latlong_row_solid_angle(0, w, h) / exact, 1.0, 1e-9);
 }
 
+// The hats of a few texels alone are, to the bit, those of the whole call
+// (the hot texels' hats, make_hot_points and remove_hot): first, last and
+// middle texels (the wrapped and clamped ends), a repeat, bins that do and
+// do not divide the texels, one bin; a texel off the axis is refused.
+TEST(LatLong, HatPiecesOfSomeTexelsAreThoseOfTheWholeCall) {
+    for (const auto& [texels, bins] : {std::pair{97, 16}, {256, 64}, {300, 1}, {1024, 512}, {5, 8}}) {
+        const std::vector<int> only = {texels - 1, 0, texels / 2, 0, 1, texels / 3};
+        for (const bool lon : {true, false}) {
+            const std::vector<HatPiece> all = lon ? hat_pieces_lon(texels, bins) : hat_pieces_lat(texels, bins);
+            const std::vector<HatPiece> some =
+                lon ? hat_pieces_lon(texels, bins, only) : hat_pieces_lat(texels, bins, only);
+            std::vector<HatPiece> expect;
+            for (const HatPiece& p : all)
+                if (std::find(only.begin(), only.end(), p.texel) != only.end()) expect.push_back(p);
+            ASSERT_EQ(some.size(), expect.size()) << texels << " " << bins << " " << lon;
+            ASSERT_GT(some.size(), 0u);
+            for (size_t k = 0; k < some.size(); ++k) {
+                EXPECT_EQ(some[k].texel, expect[k].texel);
+                EXPECT_EQ(some[k].bin, expect[k].bin);
+                EXPECT_EQ(std::memcmp(some[k].w, expect[k].w, sizeof(some[k].w)), 0) << texels << " " << bins;
+            }
+        }
+        EXPECT_THROW(hat_pieces_lon(texels, bins, {texels}), std::out_of_range);
+        EXPECT_THROW(hat_pieces_lat(texels, bins, {-1}), std::out_of_range);
+        EXPECT_TRUE(hat_pieces_lat(texels, bins, {}).empty());
+    }
+}
+
 TEST(Quadrature, GaussLegendreIsExactForPolynomials) {
     for (int n : {1, 2, 5, 12, 40}) {
         const QuadratureRule r = gauss_legendre(n, 0.0, 2.0);

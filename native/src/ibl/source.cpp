@@ -319,7 +319,16 @@ void make_hot_points(HotSplit& out, int w, int h, const std::vector<HotStream::E
     const LatLongTables tab(w, h);
     // A texel's value reaches the sphere through its hats (SPEC's bilinear
     // L): its point carries the hats' integrals (over the whole sphere).
-    const std::vector<HatPiece> lon_hats = hat_pieces_lon(w, 1), lat_hats = hat_pieces_lat(h, 1);
+    // (Each texel's one piece of the single bin, for the hot texels alone.)
+    std::vector<int> xs, ys;
+    for (const HotStream::Entry& c : hot) {
+        xs.push_back(c.x);
+        ys.push_back(c.y);
+    }
+    std::vector<const double*> lon_hat(size_t(w), nullptr), lat_hat(size_t(h), nullptr);
+    const std::vector<HatPiece> lon_hats = hat_pieces_lon(w, 1, xs), lat_hats = hat_pieces_lat(h, 1, ys);
+    for (const HatPiece& p : lon_hats) lon_hat[size_t(p.texel)] = p.w;
+    for (const HatPiece& p : lat_hats) lat_hat[size_t(p.texel)] = p.w;
     double hot_power = 0.0;
     const double threshold = out.threshold;
     for (const HotStream::Entry& c : hot) {
@@ -329,8 +338,8 @@ void make_hot_points(HotSplit& out, int w, int h, const std::vector<HotStream::E
         HotTexel t{x, y, {0, 0, 0}};
         RadiancePoint p;
         const Vec3d d = tab.engine_dir(x, y);
-        const double* U = lon_hats[x].w;
-        const double* V = lat_hats[y].w;
+        const double* U = lon_hat[size_t(x)];
+        const double* V = lat_hat[size_t(y)];
         const double om = U[0] * V[0];
         const Vec3d md = Vec3d{U[1] * V[3], U[0] * V[1], -U[2] * V[3]} / om;
         p.dir[0] = float(d.x); p.dir[1] = float(d.y); p.dir[2] = float(d.z);
@@ -655,7 +664,12 @@ void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, co
     bh = std::max(1, bh);
     // Each hot texel's gift is spread by its hats (SPEC's bilinear L): take
     // it out of every bin its hats reach.
-    const std::vector<HatPiece> cols = hat_pieces_lon(img_w, bw), rows = hat_pieces_lat(img_h, bh);
+    std::vector<int> xs, ys;
+    for (const HotTexel& t : split.texels) {
+        xs.push_back(t.x);
+        ys.push_back(t.y);
+    }
+    const std::vector<HatPiece> cols = hat_pieces_lon(img_w, bw, xs), rows = hat_pieces_lat(img_h, bh, ys);
     std::vector<std::vector<const HatPiece*>> by_col(img_w), by_row(img_h);
     for (const HatPiece& p : cols) by_col[p.texel].push_back(&p);
     for (const HatPiece& p : rows) by_row[p.texel].push_back(&p);

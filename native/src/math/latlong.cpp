@@ -1,6 +1,7 @@
 #include "iblbake/math/latlong.h"
 
 #include <algorithm>
+#include <stdexcept>
 
 namespace iblbake {
 
@@ -57,9 +58,11 @@ constexpr double kGlw[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548
 
 // The hats of `texels` centres cut by `bins` cells on [0, 1] (periodic or
 // clamped), each piece integrated by `fn(x, hat, weight, w[6])` at Gauss
-// points x in [0, 1] of the axis.
+// points x in [0, 1] of the axis. With `want`, only the texels it marks:
+// their pieces are those of the whole call, to the bit (the same stretches,
+// integrated and merged in the same order).
 template <typename Fn>
-std::vector<HatPiece> hat_pieces(int texels, int bins, bool periodic, Fn&& fn) {
+std::vector<HatPiece> hat_pieces(int texels, int bins, bool periodic, Fn&& fn, const std::vector<char>* want = nullptr) {
     // Breakpoints in integer units of 1 / (2 texels bins): centres (2k+1) bins, edges 2 texels b.
     const long long unit = 2LL * texels * bins;
     std::vector<long long> pts;
@@ -83,6 +86,8 @@ std::vector<HatPiece> hat_pieces(int texels, int bins, bool periodic, Fn&& fn) {
             tl = std::clamp(tl, 0, texels - 1);
             tr = std::clamp(tr, 0, texels - 1);
         }
+        const bool want_l = !want || (*want)[size_t(tl)], want_r = !want || (*want)[size_t(tr)];
+        if (!want_l && !want_r) continue;
         HatPiece pl{tl, bin, {0, 0, 0, 0, 0, 0}}, pr{tr, bin, {0, 0, 0, 0, 0, 0}};
         // Gauss points on sub-pieces of at most 1/64 of the axis (accuracy on wide bins).
         const double x0 = double(a) / unit, x1 = double(e) / unit;
@@ -98,8 +103,8 @@ std::vector<HatPiece> hat_pieces(int texels, int bins, bool periodic, Fn&& fn) {
                 fn(x, f, wt, pr.w);
             }
         }
-        out.push_back(pl);
-        out.push_back(pr);
+        if (want_l) out.push_back(pl);
+        if (want_r) out.push_back(pr);
     }
     std::stable_sort(out.begin(), out.end(), [](const HatPiece& p, const HatPiece& q) {
         return p.bin != q.bin ? p.bin < q.bin : p.texel < q.texel;
@@ -117,20 +122,43 @@ std::vector<HatPiece> hat_pieces(int texels, int bins, bool periodic, Fn&& fn) {
 
 }  // namespace
 
-std::vector<HatPiece> hat_pieces_lon(int texels, int bins) {
-    return hat_pieces(texels, bins, true, [](double u, double hat, double wt, double w[6]) {
-        const double phi = (0.5 - u) * 2.0 * kPi, c = std::cos(phi), s = std::sin(phi);
-        const double m = hat * wt * 2.0 * kPi;  // dphi = 2 pi du
-        w[0] += m, w[1] += m * c, w[2] += m * s, w[3] += m * c * c, w[4] += m * s * s, w[5] += m * s * c;
-    });
+namespace {
+
+void lon_terms(double u, double hat, double wt, double w[6]) {
+    const double phi = (0.5 - u) * 2.0 * kPi, c = std::cos(phi), s = std::sin(phi);
+    const double m = hat * wt * 2.0 * kPi;  // dphi = 2 pi du
+    w[0] += m, w[1] += m * c, w[2] += m * s, w[3] += m * c * c, w[4] += m * s * s, w[5] += m * s * c;
 }
 
-std::vector<HatPiece> hat_pieces_lat(int texels, int bins) {
-    return hat_pieces(texels, bins, false, [](double t, double hat, double wt, double w[6]) {
-        const double lat = (0.5 - t) * kPi, s = std::sin(lat), c = std::cos(lat);
-        const double m = hat * wt * kPi * c;  // ds = pi cos(lat) dt
-        w[0] += m, w[1] += m * s, w[2] += m * s * s, w[3] += m * c, w[4] += m * s * c;
-    });
+void lat_terms(double t, double hat, double wt, double w[6]) {
+    const double lat = (0.5 - t) * kPi, s = std::sin(lat), c = std::cos(lat);
+    const double m = hat * wt * kPi * c;  // ds = pi cos(lat) dt
+    w[0] += m, w[1] += m * s, w[2] += m * s * s, w[3] += m * c, w[4] += m * s * c;
+}
+
+std::vector<char> wanted(int texels, const std::vector<int>& only) {
+    std::vector<char> want(size_t(std::max(texels, 0)), 0);
+    for (int t : only) {
+        if (t < 0 || t >= texels) throw std::out_of_range("hat_pieces: a texel outside the axis");
+        want[size_t(t)] = 1;
+    }
+    return want;
+}
+
+}  // namespace
+
+std::vector<HatPiece> hat_pieces_lon(int texels, int bins) { return hat_pieces(texels, bins, true, lon_terms); }
+
+std::vector<HatPiece> hat_pieces_lat(int texels, int bins) { return hat_pieces(texels, bins, false, lat_terms); }
+
+std::vector<HatPiece> hat_pieces_lon(int texels, int bins, const std::vector<int>& only) {
+    const std::vector<char> want = wanted(texels, only);
+    return hat_pieces(texels, bins, true, lon_terms, &want);
+}
+
+std::vector<HatPiece> hat_pieces_lat(int texels, int bins, const std::vector<int>& only) {
+    const std::vector<char> want = wanted(texels, only);
+    return hat_pieces(texels, bins, false, lat_terms, &want);
 }
 
 }  // namespace iblbake
