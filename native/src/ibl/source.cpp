@@ -313,6 +313,18 @@ struct HotStream::Entry {
 
 namespace {
 
+// The columns and the rows of some texels (anything with x and y), in their
+// order: the `only` of hat_pieces_lon/lat for the hot texels.
+template <typename Texel>
+std::pair<std::vector<int>, std::vector<int>> columns_and_rows(const std::vector<Texel>& texels) {
+    std::pair<std::vector<int>, std::vector<int>> xy;
+    for (const Texel& t : texels) {
+        xy.first.push_back(t.x);
+        xy.second.push_back(t.y);
+    }
+    return xy;
+}
+
 // split_hot's points of the texels above out.threshold (given in row-major
 // order), and the hot power's fraction of total_power.
 void make_hot_points(HotSplit& out, int w, int h, const std::vector<HotStream::Entry>& hot, double total_power) {
@@ -320,11 +332,7 @@ void make_hot_points(HotSplit& out, int w, int h, const std::vector<HotStream::E
     // A texel's value reaches the sphere through its hats (SPEC's bilinear
     // L): its point carries the hats' integrals (over the whole sphere).
     // (Each texel's one piece of the single bin, for the hot texels alone.)
-    std::vector<int> xs, ys;
-    for (const HotStream::Entry& c : hot) {
-        xs.push_back(c.x);
-        ys.push_back(c.y);
-    }
+    const auto [xs, ys] = columns_and_rows(hot);
     std::vector<const double*> lon_hat(size_t(w), nullptr), lat_hat(size_t(h), nullptr);
     const std::vector<HatPiece> lon_hats = hat_pieces_lon(w, 1, xs), lat_hats = hat_pieces_lat(h, 1, ys);
     for (const HatPiece& p : lon_hats) lon_hat[size_t(p.texel)] = p.w;
@@ -664,11 +672,7 @@ void remove_hot(std::vector<Bin>& bins, int bw, int bh, int img_w, int img_h, co
     bh = std::max(1, bh);
     // Each hot texel's gift is spread by its hats (SPEC's bilinear L): take
     // it out of every bin its hats reach.
-    std::vector<int> xs, ys;
-    for (const HotTexel& t : split.texels) {
-        xs.push_back(t.x);
-        ys.push_back(t.y);
-    }
+    const auto [xs, ys] = columns_and_rows(split.texels);
     const std::vector<HatPiece> cols = hat_pieces_lon(img_w, bw, xs), rows = hat_pieces_lat(img_h, bh, ys);
     std::vector<std::vector<const HatPiece*>> by_col(img_w), by_row(img_h);
     for (const HatPiece& p : cols) by_col[p.texel].push_back(&p);
