@@ -341,6 +341,12 @@ TEST(StreamedBake, OverflowGuardAndWholeSourceOptionsFallBack) {
     huge.at(3, 3)[1] = 1e30f;
     ImageBands bands(huge, 8);
     EXPECT_FALSE(compute_bake_stream(bands, small_options()));  // the whole image, scaled, bakes it
+    // And a source whose largest value is below 2^-64 (scaled up, out of the denormals).
+    const Image tiny = ref::constant_source(64, 32, 1e-37f);
+    ImageBands tiny_bands(tiny, 8);
+    EXPECT_FALSE(compute_bake_stream(tiny_bands, small_options()));
+    const BakeResult tiny_whole = compute_bake(tiny, small_options());
+    for (float v : tiny_whole.specular.back().pixels) ASSERT_NEAR(v / 1e-37f, 1.0f, 1e-3f);
     for (int k = 0; k < 4; ++k) {
         BakeOptions o = small_options();
         if (k == 0) o.rotation = 30.0;

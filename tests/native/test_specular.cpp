@@ -677,7 +677,8 @@ TEST(Specular, EveryKernelIsaAgreesWithTheBaseline) {
 // The bins' column sums (kernel::row_pieces_fn) are built per instruction
 // set with blocks as wide as each one's registers hold: every one gives the
 // bins, to the bit, that the baseline gives, and those are the pieces'
-// products added row by row in double (a scalar sum here). Widths whose rows
+// products added row by row in float (a scalar sum here), then weighed by
+// the longitude hats in double. Widths whose rows
 // (3 floats a texel) leave a tail past every block width, and one that
 // leaves none. The same for the SH9 made from those column sums.
 TEST(Specular, BinColumnSumsAreTheSameBitsOnEveryIsa) {
@@ -690,19 +691,19 @@ TEST(Specular, BinColumnSumsAreTheSameBitsOnEveryIsa) {
         // Bin row 3's power from its pieces, one product after another.
         const std::vector<HatPiece> cols = hat_pieces_lon(w, bw), rows = hat_pieces_lat(h, bw / 2);
         double power[3] = {0, 0, 0};
-        std::vector<double> cs(size_t(w) * 3, 0.0);
+        std::vector<float> cs(size_t(w) * 3, 0.0f);
         bool first = true;
         for (const HatPiece& rp : rows) {
             if (rp.bin != 3) continue;
             for (size_t i = 0; i < cs.size(); ++i) {
-                const double prod = double(src.at(0, rp.texel)[i]) * rp.w[0];
+                const float prod = src.at(0, rp.texel)[i] * float(rp.w[0]);
                 cs[i] = first ? prod : cs[i] + prod;
             }
             first = false;
         }
         for (const HatPiece& cp : cols)
             if (cp.bin == 0)
-                for (int c = 0; c < 3; ++c) power[c] += cs[size_t(cp.texel) * 3 + c] * cp.w[0];
+                for (int c = 0; c < 3; ++c) power[c] += double(cs[size_t(cp.texel) * 3 + c]) * cp.w[0];
         for (int c = 0; c < 3; ++c) EXPECT_EQ(base[size_t(3) * bw].power[c], power[c]) << w << " " << c;
         for (const char* isa : {"avx2", "avx512"}) {
             if (!set_specular_kernel_isa(isa)) continue;

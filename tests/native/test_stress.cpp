@@ -102,16 +102,19 @@ TEST(Stress, ExtremeValuesStayFiniteAndConserveEnergy) {
 }
 
 TEST(Stress, TinyRadianceIsNotFlushedToZero) {
-    // 1e-30 everywhere: every output is 1e-30 (a constant world), not 0 or a denormal.
-    for (SpecularMethod m : {SpecularMethod::Hierarchical, SpecularMethod::Fis}) {
-        BakeOptions o = cheap(16, 8);
-        o.specular_method = m;
-        const BakeResult r = compute_bake(ref::constant_source(256, 128, 1e-30f), o);
-        EXPECT_EQ(non_finite(r), 0u);
-        for (float v : r.irradiance->pixels) ASSERT_NEAR(v / 1e-30f, 1.0f, 1e-3f);
-        for (const Cubemap& c : r.specular)
-            for (float v : c.pixels) ASSERT_NEAR(v / 1e-30f, 1.0f, 1e-3f) << specular_method_name(m);
-    }
+    // 1e-30 everywhere, and 1e-36 (its products with a texel's hat weights,
+    // summed in float, would be denormals): every output is that constant
+    // (a constant world), not 0 or a denormal.
+    for (float L : {1e-30f, 1e-36f, 1e-37f, 2e-38f})
+        for (SpecularMethod m : {SpecularMethod::Hierarchical, SpecularMethod::Fis}) {
+            BakeOptions o = cheap(16, 8);
+            o.specular_method = m;
+            const BakeResult r = compute_bake(ref::constant_source(256, 128, L), o);
+            EXPECT_EQ(non_finite(r), 0u);
+            for (float v : r.irradiance->pixels) ASSERT_NEAR(v / L, 1.0f, 1e-3f) << L;
+            for (const Cubemap& c : r.specular)
+                for (float v : c.pixels) ASSERT_NEAR(v / L, 1.0f, 1e-3f) << specular_method_name(m) << " " << L;
+        }
 }
 
 TEST(Stress, BadPixelsAreExactlyZeros) {

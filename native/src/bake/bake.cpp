@@ -143,9 +143,13 @@ bool irradiance_from_tree(const BakeOptions& o, bool need_tree, int finest_bins)
     return (o.irradiance || o.extra.irradiance) && need_tree && o.irradiance_bins <= finest_bins / 4;
 }
 
-// 0 when the largest value is below 2^64, else the exponent e such that
-// dividing by 2^e brings it there.
+// 0 when the largest value lies in [2^-64, 2^64) (or is 0), else the
+// exponent e such that dividing by 2^e brings it there: below 2^60 from
+// above, to [1, 2) from below. The bins' column sums are float: a source of
+// 1e-37 would make products of denormals (2^-64 is 5e-20, far below any
+// real HDRI's largest value).
 int overflow_guard_exponent(float max_value) {
+    if (max_value > 0.0f && std::ilogb(max_value) < -64) return std::ilogb(max_value);
     const int e = std::ilogb(std::max(max_value, 1.0f));
     return e >= 64 ? e - 60 : 0;
 }
@@ -558,7 +562,8 @@ void scan(SourceBake& b) {
     check_strict(r, b.o);
     // Radiance far beyond what any real HDRI holds (finite floats up to
     // 3.4e38) would overflow the float sums: bring the maximum below 2^64 by
-    // an exact power of two and scale the outputs back at the end.
+    // an exact power of two and scale the outputs back at the end (and a
+    // whole source below 2^-64 up, out of the denormals).
     b.scale_exp = overflow_guard_exponent(b.summary.scan.max_value);
 }
 

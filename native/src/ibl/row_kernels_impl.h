@@ -8,9 +8,6 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
-#if defined(__AVX512F__)
-#include <immintrin.h>  // row_pieces' conversions
-#endif
 
 #include "iblbake/math/fast_math.h"
 #include "specular_kernel.h"
@@ -27,42 +24,37 @@ typedef double V8d __attribute__((vector_size(64)));  // eight doubles: one zmm 
 }  // namespace
 
 // A bin row's five column sums (source.cpp's add_row_pieces), the whole
-// blocks of kBlock columns: each block taken through every piece at once,
-// its sums kept in registers (a 16K row's five sums, 2 MB of doubles, were
-// read and written once per piece, about 64 times a bin row); returns the
-// first column not summed. No fused multiply-add (fp-contract off) and each
-// column's products added in the pieces' order, so every instruction set
-// and block width gives the same bits: those of adding the pieces' products
-// row by row. The block is as wide as the registers hold its 5 x kV sums
-// (GCC's target_clones had given AVX2 twice as many as it has, spilled on
-// every piece, and AVX-512 two half conversions and a shuffle for each
-// vcvtps2pd).
+// blocks of kBlock values: each block taken through every piece at once,
+// its sums kept in registers (a 16K row's five sums were read and written
+// once per piece, about 64 times a bin row), then rebuilt in double
+// (rebuild_sums) and stored; returns the first value not summed. The sums
+// are in float: they run over one bin row's pieces (a few dozen source
+// rows) on centred weights, and float vectors hold twice as many values
+// with no conversion per piece (in double, with a vcvtps2pd per vector and
+// piece, this was 7.6 % of a 16K bake's CPU). No fused multiply-add
+// (fp-contract off) and each value's products added in the pieces' order,
+// so every instruction set and block width gives the same bits: those of
+// adding the pieces' products row by row. The block is as wide as the
+// registers hold its 5 x kV sums.
 __attribute__((optimize("fp-contract=off"))) size_t IBLBAKE_ROW_KERNEL(row_pieces)(const float* const* src,
-                                                                                  const double* w, size_t pieces,
-                                                                                  size_t n, double* const* out) {
+                                                                                  const float* w, size_t pieces,
+                                                                                  size_t n, const double* centre,
+                                                                                  double* const* out) {
 #if defined(__AVX512F__)
-    constexpr int kL = 8, kV = 2;  // 10 of 32 zmm (kV = 4 was 30 % slower)
+    constexpr int kL = 16, kV = 2;  // 10 of 32 zmm
 #elif defined(__AVX2__)
-    constexpr int kL = 4, kV = 2;  // 10 of 16 ymm
+    constexpr int kL = 8, kV = 2;  // 10 of 16 ymm
 #else
-    constexpr int kL = 2, kV = 2;  // 10 of 16 xmm
+    constexpr int kL = 4, kV = 2;  // 10 of 16 xmm
 #endif
     constexpr size_t kBlock = size_t(kL) * kV;
+    typedef float VF __attribute__((vector_size(4 * kL)));
     typedef double VD __attribute__((vector_size(8 * kL)));
     size_t i0 = 0;
     for (; i0 + kBlock <= n; i0 += kBlock) {
-        VD acc[5][kV], v[kV];
+        VF acc[5][kV], v[kV];
         auto load = [&](size_t p) {
-            for (int q = 0; q < kV; ++q) {
-#if defined(__AVX512F__)
-                v[q] = VD(_mm512_maskz_cvtps_pd(__mmask8(0xff), _mm256_loadu_ps(src[p] + i0 + kL * q)));
-#else
-                typedef float VF __attribute__((vector_size(4 * kL)));
-                VF f;
-                std::memcpy(&f, src[p] + i0 + kL * q, sizeof(f));
-                v[q] = __builtin_convertvector(f, VD);
-#endif
-            }
+            for (int q = 0; q < kV; ++q) std::memcpy(&v[q], src[p] + i0 + kL * q, sizeof(v[q]));
         };
         load(0);
         for (int k = 0; k < 5; ++k)
@@ -70,11 +62,16 @@ __attribute__((optimize("fp-contract=off"))) size_t IBLBAKE_ROW_KERNEL(row_piece
         for (size_t p = 1; p < pieces; ++p) {
             load(p);
             for (int k = 0; k < 5; ++k) {
-                const double wk = w[5 * p + k];
+                const float wk = w[5 * p + k];
                 for (int q = 0; q < kV; ++q) acc[k][q] += v[q] * wk;
             }
         }
-        for (int k = 0; k < 5; ++k) std::memcpy(out[k] + i0, acc[k], sizeof(acc[k]));
+        for (int q = 0; q < kV; ++q) {
+            VD S[5], raw[5];
+            for (int k = 0; k < 5; ++k) S[k] = __builtin_convertvector(acc[k][q], VD);
+            rebuild_sums(S, centre, raw);
+            for (int k = 0; k < 5; ++k) std::memcpy(out[k] + i0 + kL * q, &raw[k], sizeof(raw[k]));
+        }
     }
     return i0;
 }

@@ -449,7 +449,8 @@ std::vector<size_t> group_starts(const std::vector<HatPiece>& pieces, int groups
 
 BinReduction::BinReduction(ImageView img, int bw, int bh, bool sh9, int chunk_columns)
     : img_(img), bw_(std::max(1, bw)), bh_(std::max(1, bh)), chunk_(chunk_columns) {
-    // Whole SH9 lanes (8 columns) and row_pieces blocks (16 values) per chunk.
+    // Whole SH9 lanes (8 columns) per chunk, and whole row_pieces blocks (16
+    // values; 32 on AVX-512, whose chunk remainder the tail sums) by default.
     if (chunk_ < 16 || chunk_ % 16 != 0) throw std::invalid_argument("BinReduction: chunks of a multiple of 16 columns");
     cols_ = hat_pieces_lon(img.width, bw_);
     rows_ = hat_pieces_lat(img.height, bh_);  // t = 1 - v, from the top
@@ -503,29 +504,36 @@ void add_hat_product(Bin& b, const double v[3], const double* s0, const double* 
 // longitude hat integrals once per bin row instead of once per pixel row.
 namespace {
 
-// A bin row's row pieces into the five column sums:
-// c_k[i] = sum over pieces p (in order) of src_p[i] * w_p[k], the first
-// product stored, the others added to it (kernel::row_pieces_fn: blocks of
-// 32 columns in registers, the same operations in the same order, so every
-// instruction set gives the same bits).
-// The last columns, fewer than a block: the same sums column by column
-// (built for the baseline x86-64: no fused multiply-add).
-void add_row_pieces_tail(const float* const* src, const double* w, size_t pieces, size_t i0, size_t n,
-                         double* const* out) {
-    for (size_t i = i0; i < n; ++i)
+// A bin row's row pieces into the five column sums, in float on centred
+// weights: S_k[i] = sum over pieces p (in order) of src_p[i] * w_p[k], the
+// first product stored, the others added to it, then rebuilt in double
+// into the sums of 1, s, s^2, c, s c (kernel::rebuild_sums; the weights
+// and why in BinReduction::row). kernel::row_pieces_fn sums blocks of 8 to
+// 32 values in registers, the same operations in the same order, so every
+// instruction set gives the same bits. A bin row's pieces are a few dozen
+// source rows: float keeps each sum to a few parts in 1e7 of the
+// magnitudes summed, and everything after is double.
+// The last values, fewer than a block: the same sums value by value (built
+// for the baseline x86-64: no fused multiply-add).
+void add_row_pieces_tail(const float* const* src, const float* w, size_t pieces, size_t i0, size_t n,
+                         const double* centre, double* const* out) {
+    for (size_t i = i0; i < n; ++i) {
+        double S[5], raw[5];
         for (int k = 0; k < 5; ++k) {
-            double a = double(src[0][i]) * w[k];
-            for (size_t p = 1; p < pieces; ++p) a += double(src[p][i]) * w[5 * p + k];
-            out[k][i] = a;
+            float a = src[0][i] * w[k];
+            for (size_t p = 1; p < pieces; ++p) a += src[p][i] * w[5 * p + k];
+            S[k] = a;
         }
+        kernel::rebuild_sums(S, centre, raw);
+        for (int k = 0; k < 5; ++k) out[k][i] = raw[k];
+    }
 }
 
-// c_k for k = 0..4 into cs0, cs1, cs2, cc0, cc1 (at least one piece): the
-// whole blocks by kernel::row_pieces_fn, built for the CPU's vectors.
-void add_row_pieces(const float* const* src, const double* w, size_t pieces, size_t n, double* cs0, double* cs1,
-                    double* cs2, double* cc0, double* cc1) {
-    double* const out[5] = {cs0, cs1, cs2, cc0, cc1};
-    add_row_pieces_tail(src, w, pieces, kernel::row_pieces_fn()(src, w, pieces, n, out), n, out);
+// The five sums into out[k] (at least one piece): the whole blocks by
+// kernel::row_pieces_fn, built for the CPU's vectors.
+void add_row_pieces(const float* const* src, const float* w, size_t pieces, size_t n, const double* centre,
+                    double* const* out) {
+    add_row_pieces_tail(src, w, pieces, kernel::row_pieces_fn()(src, w, pieces, n, centre, out), n, centre, out);
 }
 
 }  // namespace
@@ -584,14 +592,31 @@ void BinReduction::row(ImageView img, int br, Bin* out, std::array<Sh9, 3>* sh9)
     double* cs2 = cs1 + chunk_n;
     double* cc0 = cs2 + chunk_n;
     double* cc1 = cc0 + chunk_n;
+    double* const sums[5] = {cs0, cs1, cs2, cc0, cc1};
     thread_local std::vector<const float*> src, at;
-    thread_local std::vector<double> w;  // five latitude terms per piece
+    thread_local std::vector<float> w;  // five latitude terms per piece
     src.clear();
     w.clear();
+    const double lat_c = (0.5 - (br + 0.5) / bh_) * kPi, s0 = std::sin(lat_c), c0 = std::cos(lat_c);
+    const double centre[2] = {s0, c0};
     for (size_t k = first_[br]; k < rows_.size() && rows_[k].bin == br; ++k) {
         const HatPiece& rp = rows_[k];
         src.push_back(img.at(0, rp.texel));
-        w.insert(w.end(), rp.w, rp.w + 5);
+        // The five weights centred on the bin row's middle latitude (s0 =
+        // sin, c0 = cos): 1, s - s0, (s - s0)^2, c - c0, (s - s0)(c - c0),
+        // each the hat's integral of that term, from its raw ones in double
+        // and rounded to float once. The raw sums come back in double
+        // (kernel::rebuild_sums).
+        // (Raw terms summed in float lost a bin's covariance, its second
+        // moment less its mean's square, to cancellation: 64 % off at a
+        // sun's edge; centred, a float error in a sum is one of a bin's
+        // centre or spread, not of the difference.)
+        const double* v = rp.w;
+        w.push_back(float(v[0]));
+        w.push_back(float(v[1] - s0 * v[0]));
+        w.push_back(float(v[2] - 2.0 * s0 * v[1] + s0 * s0 * v[0]));
+        w.push_back(float(v[3] - c0 * v[0]));
+        w.push_back(float(v[4] - s0 * v[3] - c0 * v[1] + s0 * c0 * v[0]));
     }
     at.resize(src.size());
     std::fill(out, out + bw_, Bin{});
@@ -604,7 +629,7 @@ void BinReduction::row(ImageView img, int br, Bin* out, std::array<Sh9, 3>* sh9)
             std::fill(col.begin(), col.end(), 0.0);  // no row piece reaches this bin row
         } else {
             for (size_t p = 0; p < src.size(); ++p) at[p] = src[p] + size_t(x0) * 3;
-            add_row_pieces(at.data(), w.data(), at.size(), n, cs0, cs1, cs2, cc0, cc1);
+            add_row_pieces(at.data(), w.data(), at.size(), n, centre, sums);
         }
         for (size_t k = chunk_first_[c]; k < chunk_first_[c + 1]; ++k) {
             const HatPiece& cp = cols_[k];

@@ -41,13 +41,33 @@ void sums_avx512(const float* const* fields, size_t count, int lobes, const floa
                  double (*num)[kMaxLobes][3]);
 
 // A bin row's five column sums over its row pieces (source.cpp's
-// add_row_pieces), the whole blocks of 32 columns; returns the first column
-// not summed. The same bits for every instruction set (no FMA).
-using RowPiecesFn = size_t (*)(const float* const* src, const double* w, size_t pieces, size_t n,
-                               double* const* out);
-size_t row_pieces_baseline(const float* const* src, const double* w, size_t pieces, size_t n, double* const* out);
-size_t row_pieces_avx2(const float* const* src, const double* w, size_t pieces, size_t n, double* const* out);
-size_t row_pieces_avx512(const float* const* src, const double* w, size_t pieces, size_t n, double* const* out);
+// add_row_pieces), the whole blocks of 8 to 32 values; returns the first
+// value not summed. Each value's products with the five centred weights
+// are summed in float, then the raw sums rebuilt in double (rebuild_sums,
+// centre = {s0, c0}). The same bits for every instruction set (no FMA).
+using RowPiecesFn = size_t (*)(const float* const* src, const float* w, size_t pieces, size_t n,
+                               const double* centre, double* const* out);
+size_t row_pieces_baseline(const float* const* src, const float* w, size_t pieces, size_t n, const double* centre,
+                           double* const* out);
+size_t row_pieces_avx2(const float* const* src, const float* w, size_t pieces, size_t n, const double* centre,
+                       double* const* out);
+size_t row_pieces_avx512(const float* const* src, const float* w, size_t pieces, size_t n, const double* centre,
+                         double* const* out);
+// The sums of L times 1, s, s^2, c, s c (into out[0..4]) from those of L
+// times the centred terms 1, s - s0, (s - s0)^2, c - c0, (s - s0)(c - c0)
+// (in S[0..4]), s0 = centre[0], c0 = centre[1]: for a double or a vector of
+// doubles, one expression, so the kernels and the scalar tail agree to the
+// bit (built with fp-contract off).
+template <typename T>
+inline void rebuild_sums(const T S[5], const double* centre, T out[5]) {
+    const double s0 = centre[0], c0 = centre[1];
+    const double two_s0 = 2.0 * s0, s0s0 = s0 * s0, s0c0 = s0 * c0;
+    out[0] = S[0];
+    out[1] = S[1] + s0 * S[0];
+    out[2] = S[2] + two_s0 * S[1] + s0s0 * S[0];
+    out[3] = S[3] + c0 * S[0];
+    out[4] = S[4] + s0 * S[3] + c0 * S[1] + s0c0 * S[0];
+}
 RowPiecesFn row_pieces_fn();
 
 // A bin row's band-2 SH9 sums from its five column sums (row_kernels_impl.h),

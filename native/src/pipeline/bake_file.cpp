@@ -145,7 +145,7 @@ nlohmann::json bake_file(const std::string& source_path, const std::filesystem::
             settle_hash();
             return writer->finish(*r, src);
         }
-        // Values of 2^64 and more: the overflow guard scales the whole source (nothing written yet).
+        // Values of 2^64 and more (or all below 2^-64): the overflow guard scales the whole source (nothing written yet).
         streamed.reset();
     }
     io::LoadedImage loaded;

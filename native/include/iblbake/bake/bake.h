@@ -230,8 +230,9 @@ double stream_state_bytes(const BakeOptions& options);
 // per-row arithmetic is today's, on views of the band). Its memory is the
 // bands' and the outputs', whatever the source's size. Requires
 // whole_source_reason(options) to be "". Returns nothing (having handed the
-// sink nothing) when the source holds values of 2^64 or more, which the
-// overflow guard must scale first: bake the whole image then.
+// sink nothing) when the source holds values of 2^64 or more, or none of
+// 2^-64 or more but some above 0, which the overflow guard must scale
+// first: bake the whole image then.
 std::optional<BakeResult> compute_bake_stream(BandSource& source, const BakeOptions& options,
                                               const ProgressFn& progress = {}, LutCache* lut_cache = nullptr,
                                               OutputSink* sink = nullptr);
