@@ -57,9 +57,11 @@ size_t row_pieces_avx512(const float* const* src, const float* w, size_t pieces,
 // times the centred terms 1, s - s0, (s - s0)^2, c - c0, (s - s0)(c - c0)
 // (in S[0..4]), s0 = centre[0], c0 = centre[1]: for a double or a vector of
 // doubles, one expression, so the kernels and the scalar tail agree to the
-// bit (built with fp-contract off).
+// bit. Built with fp-contract off itself: GCC 10 (the wheels' compiler) does
+// not inline it into the kernels, whose units allow FMA, and its own copy
+// then fused the products (the wheels' SH9 differed from the CLI's).
 template <typename T>
-inline void rebuild_sums(const T S[5], const double* centre, T out[5]) {
+__attribute__((optimize("fp-contract=off"))) inline void rebuild_sums(const T S[5], const double* centre, T out[5]) {
     const double s0 = centre[0], c0 = centre[1];
     const double two_s0 = 2.0 * s0, s0s0 = s0 * s0, s0c0 = s0 * c0;
     out[0] = S[0];
