@@ -28,6 +28,12 @@
 //       bands of preferred_band() rows into one buffer, libdeflate for zlib
 //       as in the CLI) and nothing else: issue 28's "time to decode the file
 //       alone"; time it from outside (bench/alternate.py)
+//   decode-openexr SRC
+//       the same bands of a scanline EXR of R, G, B halves decoded by
+//       OpenEXR's own readPixels (its thread pool, zlib by libdeflate) and
+//       made floats: what the reader did before it decoded ZIP blocks itself
+//       (exr_zip.h), and what any program that reads the file with OpenEXR
+//       takes
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -38,10 +44,18 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfThreading.h>
+#include <Imath/ImathBox.h>
 
 #include "../tests/native/reference.h"
 #include "baselines.h"
+#include "iblbake/math/half.h"
 #include "iblbake/ibl/source.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/row_reader.h"
@@ -174,6 +188,29 @@ int decode(const std::string& path) {
     return 0;
 }
 
+int decode_openexr(const std::string& path) {
+    Imf::setGlobalThreadCount(int(std::max(1u, std::thread::hardware_concurrency())));
+    Imf::InputFile in(path.c_str(), Imf::globalThreadCount());
+    const Imath::Box2i dw = in.header().dataWindow();
+    const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1, band = 128;
+    std::vector<uint16_t> halves(size_t(w) * band * 3);
+    std::vector<float> rows(halves.size());
+    double check = 0.0;
+    for (int y = 0; y < h; y += band) {
+        const int n = std::min(band, h - y);
+        Imf::FrameBuffer fb;
+        char* base = reinterpret_cast<char*>(halves.data()) - (dw.min.x + ptrdiff_t(dw.min.y + y) * w) * 6;
+        const char* names[3] = {"R", "G", "B"};
+        for (int c = 0; c < 3; ++c) fb.insert(names[c], Imf::Slice(Imf::HALF, base + 2 * c, 6, size_t(w) * 6));
+        in.setFrameBuffer(fb);
+        in.readPixels(dw.min.y + y, dw.min.y + y + n - 1);
+        halves_to_floats(halves.data(), rows.data(), size_t(n) * w * 3);
+        check += rows[size_t(n - 1) * size_t(w) * 3];
+    }
+    std::printf("%d x %d in bands of %d rows by OpenEXR (checksum %g)\n", w, h, band, check);
+    return 0;
+}
+
 int usage() {
     std::fprintf(stderr,
                  "usage: iblbake_bench reference SRC OUT.csv IRR_FACE SPEC_FACE PER_LEVEL SMALL_FACE\n"
@@ -184,7 +221,8 @@ int usage() {
                  "       iblbake_bench dense-lut SIZE STRIDE N_THETA N_PHI OUT.csv\n"
                  "       iblbake_bench sun W H OUT.exr\n"
                  "       iblbake_bench redsun W H OUT.exr\n"
-                 "       iblbake_bench decode SRC\n");
+                 "       iblbake_bench decode SRC\n"
+                 "       iblbake_bench decode-openexr SRC\n");
     return 2;
 }
 
@@ -208,6 +246,7 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (a.size() == 2 && a[0] == "decode") return decode(a[1]);
+        if (a.size() == 2 && a[0] == "decode-openexr") return decode_openexr(a[1]);
         if (a.size() == 5 && a[0] == "seed-lut") {
             Image lut;
             const double s = median_seconds(i(3), [&] { lut = bench::seed_brdf_lut(i(1), i(2)); });

@@ -9,6 +9,7 @@
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfMultiPartOutputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfOutputPart.h>
@@ -26,7 +27,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <optional>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -37,6 +41,7 @@
 #include "iblbake/ibl/source.h"
 #include "iblbake/ibl/specular.h"
 #include "iblbake/math/half.h"
+#include "exr_zip.h"
 #include "reference.h"
 #include "test_files.h"
 
@@ -179,6 +184,158 @@ TEST(ExrRowReader, ScanlineZipHalf) {
     Layout moved;
     moved.dx = 3, moved.dy = -5;  // the data window is the display window, away from the origin
     expect_same_as_read_image(write_file("moved.exr", moved), {1, 7, 64, 1000}, true);
+}
+
+// The predictor undone 16 bytes at a time is the byte loop's answer, at
+// every length around the vectors' edges.
+TEST(ExrZip, PredictorIsTheDefinition) {
+    std::mt19937 rng(7);
+    for (size_t n : {0, 1, 2, 15, 16, 17, 18, 31, 32, 33, 47, 48, 49, 1000, 4099}) {
+        std::vector<uint8_t> a(n);
+        for (uint8_t& b : a) b = uint8_t(rng());
+        std::vector<uint8_t> b = a;
+        io::detail::undo_zip_predictor(a.data(), n);
+        io::detail::undo_zip_predictor_scalar(b.data(), n);
+        EXPECT_EQ(a, b) << n << " bytes";
+    }
+}
+
+// A block's R, G, B halves interleaved 16 pixels at a time are the
+// definition's, for widths around the vectors' edges, planes in any order,
+// a float channel among them, and lines from inside the block.
+TEST(ExrZip, SplitBlockIsTheDefinition) {
+    std::mt19937 rng(11);
+    for (int width : {1, 15, 16, 17, 31, 32, 33, 100}) {
+        io::detail::HalfPlanes p;
+        // A (half), B, G, R (half), Z (float): R, G, B at planes 3, 2, 1.
+        p.line_bytes = size_t(width) * (2 * 4 + 4);
+        p.plane[0] = size_t(width) * 6, p.plane[1] = size_t(width) * 4, p.plane[2] = size_t(width) * 2;
+        const int lines = 5;
+        for (size_t extra : {0, 1}) {  // an odd size: the high bytes start one later
+            const size_t size = p.line_bytes * lines + extra;
+            std::vector<uint8_t> block(size);
+            for (uint8_t& b : block) b = uint8_t(rng());
+            std::vector<uint16_t> a(size_t(width) * 3 * 3, 1), b(a.size(), 2);
+            io::detail::split_block_to_rgb(block.data(), size, p, width, 1, 3, a.data());
+            io::detail::split_block_to_rgb_scalar(block.data(), size, p, width, 1, 3, b.data());
+            EXPECT_EQ(a, b) << width << " wide";
+            // The definition itself, for one value: line 2's G at the last column.
+            const size_t at = (2 * p.line_bytes + p.plane[1]) / 2 + size_t(width - 1);
+            EXPECT_EQ(b[(size_t(width) * 2 - 1) * 3 + 1], uint16_t(block[at] | (block[(size + 1) / 2 + at] << 8)));
+        }
+    }
+}
+
+namespace {
+
+// A scanline file of `channels` (name, type) pairs, ZIP or ZIPS, w x h at
+// (-3, 5): every channel's values from value(), or noise that zlib cannot
+// shrink (so the blocks are stored as they are) when `noise`.
+std::string write_mixed(const std::string& name, int w, int h, Imf::Compression comp,
+                        const std::vector<std::pair<std::string, Imf::PixelType>>& channels, bool noise) {
+    const std::string path = temp_file(name).string();
+    const Imath::Box2i dw(Imath::V2i(-3, 5), Imath::V2i(-3 + w - 1, 5 + h - 1));
+    Imf::Header hd(dw, dw);
+    hd.compression() = comp;
+    for (const auto& [n, t] : channels) hd.channels().insert(n, Imf::Channel(t));
+    std::vector<std::vector<uint32_t>> store;
+    std::mt19937 rng(unsigned(w * 1000 + h));
+    Imf::FrameBuffer fb;
+    int c = 0;
+    for (const auto& [n, t] : channels) {
+        store.emplace_back(size_t(w) * h);
+        std::vector<uint32_t>& v = store.back();
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const float f = value(x, y, c);
+                uint32_t bits = 0;
+                if (t == Imf::HALF)
+                    bits = noise ? (rng() & 0xffffu) : half(f).bits();
+                else
+                    std::memcpy(&bits, &f, 4);
+                v[size_t(y) * w + x] = bits;
+            }
+        char* base = reinterpret_cast<char*>(v.data()) - (dw.min.x + ptrdiff_t(dw.min.y) * w) * 4;
+        fb.insert(n, Imf::Slice(t, base, 4, size_t(w) * 4));
+        ++c;
+    }
+    Imf::OutputFile out(path.c_str(), hd);
+    out.setFrameBuffer(fb);
+    out.writePixels(h);
+    return path;
+}
+
+}  // namespace
+
+// ZIP and ZIPS files of three HALF channels (decoded by ExrRowReader itself,
+// exr_zip.h) give read_image's rows (OpenEXR's own decoding), halves and
+// floats, in bands that start and end inside blocks: other channels around
+// R, G, B (a float among them), a layer, widths and heights around the
+// vectors' and blocks' edges, blocks stored uncompressed.
+TEST(ExrRowReader, ZipBlocksOfEveryLayout) {
+    using C = std::vector<std::pair<std::string, Imf::PixelType>>;
+    const C rgb{{"R", Imf::HALF}, {"G", Imf::HALF}, {"B", Imf::HALF}};
+    const C around{{"A", Imf::HALF}, {"R", Imf::HALF}, {"G", Imf::HALF}, {"B", Imf::HALF}, {"Z", Imf::FLOAT}};
+    const C layer{{"diffuse.R", Imf::HALF}, {"diffuse.G", Imf::HALF}, {"diffuse.B", Imf::HALF},
+                  {"depth.Z", Imf::FLOAT}, {"N.X", Imf::HALF}};
+    int k = 0;
+    for (Imf::Compression comp : {Imf::ZIP_COMPRESSION, Imf::ZIPS_COMPRESSION})
+        for (const C* ch : {&rgb, &around, &layer})
+            for (auto [w, h] : {std::pair{1, 1}, {17, 33}, {61, 16}, {300, 40}})
+                for (bool noise : {false, true}) {
+                    const std::string path = write_mixed("mixed" + std::to_string(k++) + ".exr", w, h, comp, *ch, noise);
+                    if (noise && w == 300 && ch == &rgb) {  // the first block is stored as it is: zlib could not shrink it
+                        Imf::InputFile in(path.c_str());
+                        const char* data = nullptr;
+                        int size = 0;
+                        in.rawPixelData(5, data, size);
+                        const int lines = comp == Imf::ZIP_COMPRESSION ? 16 : 1;
+                        EXPECT_EQ(size, lines * w * 6) << path;
+                    }
+                    expect_same_as_read_image(path, {1, 5, 16, 24}, true);
+                }
+}
+
+// A ZIP block whose zlib data is damaged (one byte in its middle changed) is
+// an error naming the file, from the halves and the floats alike.
+TEST(ExrRowReader, DamagedZipBlockIsAnError) {
+    Layout l;
+    l.w = 200, l.h = 40;
+    const std::string good = write_file("undamaged.exr", l);
+    std::string block;
+    {
+        Imf::InputFile in(good.c_str());
+        const char* data = nullptr;
+        int size = 0;
+        in.rawPixelData(in.header().dataWindow().min.y + 16, data, size);  // the second block
+        block.assign(data, size_t(size));
+    }
+    std::ifstream f(good, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const size_t at = bytes.find(block);
+    ASSERT_NE(at, std::string::npos);
+    ASSERT_GT(block.size(), 100u);
+    bytes[at + block.size() / 2] = char(bytes[at + block.size() / 2] ^ 0x5a);
+    const std::string path = temp_file("damaged.exr").string();
+    std::ofstream(path, std::ios::binary) << bytes;
+    io::ExrRowReader r(path);
+    ASSERT_TRUE(r.has_halves());
+    std::vector<uint16_t> h(size_t(l.w) * l.h * 3);
+    std::vector<float> v(h.size());
+    EXPECT_NO_THROW(r.read_halves(0, 16, h.data()));  // the first block is whole
+    for (int pass = 0; pass < 2; ++pass) {
+        try {
+            if (pass == 0)
+                r.read_halves(0, l.h, h.data());
+            else
+                r.read(8, 16, v.data());
+            ADD_FAILURE() << "a damaged block was read";
+        } catch (const std::runtime_error& e) {
+            const std::string what = e.what();
+            EXPECT_NE(what.find("cannot read"), std::string::npos) << what;
+            EXPECT_NE(what.find("does not decompress"), std::string::npos) << what;
+        }
+    }
 }
 
 TEST(ExrRowReader, ScanlineFloatPiz) {

@@ -12,6 +12,7 @@
 #include <OpenEXR/ImfRgbaFile.h>
 #include <OpenEXR/ImfTestFile.h>
 #include <OpenEXR/ImfThreading.h>
+#include <OpenEXR/IlmThreadPool.h>
 #include <OpenEXR/OpenEXRConfig.h>
 #include <Imath/half.h>
 #if OPENEXR_VERSION_MAJOR > 3 || (OPENEXR_VERSION_MAJOR == 3 && OPENEXR_VERSION_MINOR >= 3)
@@ -32,10 +33,13 @@
 #include <vector>
 #include <thread>
 
+#include <zlib.h>
+
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/row_reader.h"
 #include "iblbake/io/text.h"
 #include "iblbake/math/half.h"
+#include "exr_zip.h"
 #include "raw_pixels.h"
 
 namespace iblbake::io::detail {
@@ -472,6 +476,15 @@ struct ExrRowReader::Impl {
     std::vector<float> tmp;
     std::vector<Imf::Rgba> tmp_rgba;
     bool all_half = false;           // detail::three_half_channels
+    // Scanline ZIP and ZIPS blocks of three HALF channels are decoded here
+    // (exr_zip.h): OpenEXR reads each block's bytes, zlib inflates them
+    // (libdeflate in the CLI), and the predictor, the byte split and the
+    // channels' interleaving are undone in one place, by the pool's threads.
+    bool zip_direct = false;
+    detail::HalfPlanes planes;
+    int block_lines = 0;
+    std::vector<uint8_t> packed;                // a band's blocks as read, one after another
+    std::vector<std::vector<uint8_t>> scratch;  // each task's inflated block
 
     int channels() const { return rgba ? 3 : int(names.size()); }
 
@@ -576,12 +589,106 @@ struct ExrRowReader::Impl {
                 reader_warnings = notes.warnings;
             }
         }
-        if (!rgba) all_half = detail::three_half_channels((part ? part->header() : file->header()).channels(), names);
+        if (!rgba) {
+            all_half = detail::three_half_channels((part ? part->header() : file->header()).channels(), names);
+            plan_zip(part ? part->header() : file->header());
+        }
         // finish()'s order: the reader's warnings, the window's, the channels'.
         warnings = reader_warnings;
         if (!window_warning.empty()) warnings.push_back(window_warning);
         if (channels() == 2)
             warnings.push_back("the file has 2 colour channels, neither grey nor RGB: baked as grey from the first");
+    }
+
+    // Whether the blocks can be decoded here: has_halves(), scanlines, ZIP
+    // or ZIPS, every channel of the file at full resolution (so a line's
+    // layout is known), a little-endian host.
+    void plan_zip(const Imf::Header& hd) {
+#if __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+        if (!has_halves() || hd.hasTileDescription()) return;
+        if (compression != Imf::ZIP_COMPRESSION && compression != Imf::ZIPS_COMPRESSION) return;
+        size_t at[3] = {0, 0, 0}, line = 0;
+        int found = 0;
+        for (Imf::ChannelList::ConstIterator it = hd.channels().begin(); it != hd.channels().end(); ++it) {
+            const Imf::Channel& c = it.channel();
+            if (c.xSampling != 1 || c.ySampling != 1) return;
+            for (int k = 0; k < 3; ++k)
+                if (names[size_t(k)] == it.name()) at[k] = line, ++found;
+            line += size_t(c.type == Imf::HALF ? 2 : 4) * size_t(data_w);
+        }
+        if (found != 3) return;
+        planes.line_bytes = line;
+        for (int k = 0; k < 3; ++k) planes.plane[k] = at[k];
+        block_lines = detail::lines_per_block(compression);
+        zip_direct = true;
+#else
+        (void)hd;
+#endif
+    }
+
+    // File rows fa .. fb as RGB halves into out: each block's bytes read in
+    // turn (OpenEXR's rawPixelDataToBuffer, which checks the block's place
+    // and size) into one buffer, then decoded by a task per thread of
+    // OpenEXR's pool. A block that does not inflate to its size is an error.
+    void read_zip_halves(int fa, int fb, uint16_t* out) {
+        const int b0 = (fa - dw.min.y) / block_lines, b1 = (fb - dw.min.y) / block_lines, nb = b1 - b0 + 1;
+        // A block is at most its rows' size (OpenEXR refuses a longer one).
+        const size_t full = size_t(block_lines) * planes.line_bytes;
+        std::vector<size_t> at(static_cast<size_t>(nb) + 1, 0);
+        for (int k = 0; k < nb; ++k) {
+            if (packed.size() < at[size_t(k)] + full) packed.resize(at[size_t(k)] + full);
+            int size = int(full);
+            const int y = dw.min.y + (b0 + k) * block_lines;
+            char* to = reinterpret_cast<char*>(packed.data() + at[size_t(k)]);
+            if (part)
+                part->rawPixelDataToBuffer(y, to, size);
+            else
+                file->rawPixelDataToBuffer(y, to, size);
+            at[size_t(k) + 1] = at[size_t(k)] + size_t(size);
+        }
+        const int tasks = std::min(nb, detail::exr_threads());
+        if (scratch.size() < size_t(tasks)) scratch.resize(size_t(tasks));
+        std::mutex failed_mx;
+        std::string failed;
+        auto run = [&](int t) {
+            try {
+                std::vector<uint8_t>& tmp = scratch[size_t(t)];
+                for (int k = nb * t / tasks; k < nb * (t + 1) / tasks; ++k) {
+                    const int y = dw.min.y + (b0 + k) * block_lines;
+                    const int lines = std::min(block_lines, dw.max.y - y + 1);
+                    const int first = std::max(fa, y) - y, last = std::min(fb, y + lines - 1) - y;
+                    const size_t bytes = size_t(lines) * planes.line_bytes;
+                    uint16_t* o = out + size_t(y + first - fa) * size_t(data_w) * 3;
+                    const uint8_t* data = packed.data() + at[size_t(k)];
+                    const size_t size = at[size_t(k) + 1] - at[size_t(k)];
+                    if (size == bytes) {
+                        detail::plain_block_to_rgb(data, planes, data_w, first, last - first + 1, o);
+                        continue;
+                    }
+                    if (tmp.size() < bytes) tmp.resize(bytes);
+                    uLongf got = uLongf(bytes);
+                    if (size > bytes || ::uncompress(tmp.data(), &got, data, uLong(size)) != Z_OK || got != bytes)
+                        throw std::runtime_error("the block of rows from " + std::to_string(y) +
+                                                 " does not decompress (damaged zlib data)");
+                    detail::undo_zip_predictor(tmp.data(), bytes);
+                    detail::split_block_to_rgb(tmp.data(), bytes, planes, data_w, first, last - first + 1, o);
+                }
+            } catch (const std::exception& e) {
+                const std::lock_guard<std::mutex> lock(failed_mx);
+                if (failed.empty()) failed = e.what()[0] ? e.what() : "a block of rows does not decode";
+            }
+        };
+        struct Block final : ILMTHREAD_NAMESPACE::Task {
+            Block(ILMTHREAD_NAMESPACE::TaskGroup* g, decltype(run)& f, int t) : Task(g), f_(f), t_(t) {}
+            void execute() override { f_(t_); }
+            decltype(run)& f_;
+            int t_;
+        };
+        {
+            ILMTHREAD_NAMESPACE::TaskGroup group;  // waits for its tasks when it goes
+            for (int t = 0; t < tasks; ++t) ILMTHREAD_NAMESPACE::ThreadPool::addGlobalTask(new Block(&group, run, t));
+        }
+        if (!failed.empty()) throw std::runtime_error(failed);
     }
 
     void read_file_rows(int fa, int fb, Imf::FrameBuffer& fb_) {
@@ -603,6 +710,10 @@ struct ExrRowReader::Impl {
         if (rows <= 0) return;
         if (y0 < 0 || rows > h || y0 > h - rows) throw std::out_of_range("rows outside the image");
         const int fa = y0 + dw.min.y;
+        if (zip_direct) {
+            read_zip_halves(fa, fa + rows - 1, out);
+            return;
+        }
         Imf::FrameBuffer fbuf;
         detail::insert_half_slices(fbuf, names, reinterpret_cast<char*>(out), dw.min.x, fa, data_w);
         read_file_rows(fa, fa + rows - 1, fbuf);
@@ -644,8 +755,12 @@ struct ExrRowReader::Impl {
             // then fill from the start: no buffer of their own.
             const size_t values = size_t(n) * data_w * 3;
             char* halves = reinterpret_cast<char*>(first) + values * sizeof(uint16_t);
-            detail::insert_half_slices(fbuf, names, halves, dw.min.x, fa, data_w);
-            read_file_rows(fa, fb, fbuf);
+            if (zip_direct) {
+                read_zip_halves(fa, fb, reinterpret_cast<uint16_t*>(halves));
+            } else {
+                detail::insert_half_slices(fbuf, names, halves, dw.min.x, fa, data_w);
+                read_file_rows(fa, fb, fbuf);
+            }
             halves_to_floats(halves, first, values);
             return;
         }

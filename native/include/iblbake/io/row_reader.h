@@ -52,7 +52,9 @@ std::unique_ptr<RowReader> open_rows(const std::string& path);
 // value, with the same width, height and warnings (the display window
 // padded or dropped as read_image does, grey from one channel). Rows may be
 // read in any order and more than once; each call decodes the file's blocks
-// that hold them (OpenEXR's thread pool decodes them in parallel).
+// that hold them, in parallel on OpenEXR's thread pool: by OpenEXR, or, for
+// scanline ZIP and ZIPS blocks of three HALF channels, by the reader itself
+// from the blocks' bytes (src/io/exr_zip.h: the same halves, faster).
 class ExrRowReader final : public RowReader {
 public:
     // Throws std::runtime_error ("cannot read '<path>': ...") as read_image
