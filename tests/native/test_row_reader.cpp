@@ -190,13 +190,20 @@ TEST(ExrRowReader, ScanlineZipHalf) {
 // every length around the vectors' edges.
 TEST(ExrZip, PredictorIsTheDefinition) {
     std::mt19937 rng(7);
-    for (size_t n : {0, 1, 2, 15, 16, 17, 18, 31, 32, 33, 47, 48, 49, 1000, 4099}) {
+    for (size_t n : {0, 1, 2, 15, 16, 17, 18, 31, 32, 33, 34, 47, 48, 49, 63, 64, 65, 1000, 4099}) {
         std::vector<uint8_t> a(n);
         for (uint8_t& b : a) b = uint8_t(rng());
         std::vector<uint8_t> b = a;
-        io::detail::undo_zip_predictor(a.data(), n);
+#if defined(__x86_64__)
+        std::vector<uint8_t> c = a;
+        io::detail::undo_zip_predictor_sse2(c.data(), n);
+#endif
+        io::detail::undo_zip_predictor(a.data(), n);  // AVX2 where the CPU has it
         io::detail::undo_zip_predictor_scalar(b.data(), n);
         EXPECT_EQ(a, b) << n << " bytes";
+#if defined(__x86_64__)
+        EXPECT_EQ(c, b) << n << " bytes, SSE2";
+#endif
     }
 }
 

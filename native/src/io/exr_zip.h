@@ -22,10 +22,13 @@
 namespace iblbake::io::detail {
 
 // Undoes the predictor in place: b[i] = b[i - 1] + b[i] - 128 (mod 256) for
-// i >= 1, in order (a prefix sum of the bytes less 128). SSE2: 16 bytes at a
-// time, the prefix within them by four shifted adds.
+// i >= 1, in order (a prefix sum of the bytes less 128). SSE2 or AVX2: 16 or
+// 32 bytes at a time, the prefix within them by shifted adds.
 void undo_zip_predictor(uint8_t* b, size_t n);
 void undo_zip_predictor_scalar(uint8_t* b, size_t n);  // the definition, for the tests
+#if defined(__x86_64__)
+void undo_zip_predictor_sse2(uint8_t* b, size_t n);  // what a CPU without AVX2 runs, for the tests
+#endif
 
 // Where a block's R, G and B HALF channels lie: each line of the block is
 // `line_bytes` long (every channel's `width` values in turn), and R, G, B
