@@ -190,21 +190,24 @@ int decode(const std::string& path) {
 
 int decode_openexr(const std::string& path) {
     Imf::setGlobalThreadCount(int(std::max(1u, std::thread::hardware_concurrency())));
-    Imf::InputFile in(path.c_str(), Imf::globalThreadCount());
+    Imf::InputFile in(path.c_str(), 1);  // two line buffers in flight, as ExrRowReader asks (exr_file.cpp)
     const Imath::Box2i dw = in.header().dataWindow();
     const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1, band = 128;
-    std::vector<uint16_t> halves(size_t(w) * band * 3);
-    std::vector<float> rows(halves.size());
+    std::vector<float> rows(size_t(w) * band * 3);
     double check = 0.0;
     for (int y = 0; y < h; y += band) {
         const int n = std::min(band, h - y);
+        // The halves in the upper half of the rows' floats, made floats in
+        // place: ExrRowReader::read's way before 227d141.
+        const size_t values = size_t(n) * w * 3;
+        char* halves = reinterpret_cast<char*>(rows.data()) + values * sizeof(uint16_t);
         Imf::FrameBuffer fb;
-        char* base = reinterpret_cast<char*>(halves.data()) - (dw.min.x + ptrdiff_t(dw.min.y + y) * w) * 6;
+        char* base = halves - (dw.min.x + ptrdiff_t(dw.min.y + y) * w) * 6;
         const char* names[3] = {"R", "G", "B"};
         for (int c = 0; c < 3; ++c) fb.insert(names[c], Imf::Slice(Imf::HALF, base + 2 * c, 6, size_t(w) * 6));
         in.setFrameBuffer(fb);
         in.readPixels(dw.min.y + y, dw.min.y + y + n - 1);
-        halves_to_floats(halves.data(), rows.data(), size_t(n) * w * 3);
+        halves_to_floats(halves, rows.data(), values);
         check += rows[size_t(n - 1) * size_t(w) * 3];
     }
     std::printf("%d x %d in bands of %d rows by OpenEXR (checksum %g)\n", w, h, band, check);

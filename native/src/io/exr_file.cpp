@@ -24,6 +24,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -649,7 +650,7 @@ struct ExrRowReader::Impl {
         const int tasks = std::min(nb, detail::exr_threads());
         if (scratch.size() < size_t(tasks)) scratch.resize(size_t(tasks));
         std::mutex failed_mx;
-        std::string failed;
+        std::exception_ptr failed;  // the first task's error, rethrown as it was (out of memory stays that)
         auto run = [&](int t) {
             try {
                 std::vector<uint8_t>& tmp = scratch[size_t(t)];
@@ -673,9 +674,9 @@ struct ExrRowReader::Impl {
                     detail::undo_zip_predictor(tmp.data(), bytes);
                     detail::split_block_to_rgb(tmp.data(), bytes, planes, data_w, first, last - first + 1, o);
                 }
-            } catch (const std::exception& e) {
+            } catch (...) {
                 const std::lock_guard<std::mutex> lock(failed_mx);
-                if (failed.empty()) failed = e.what()[0] ? e.what() : "a block of rows does not decode";
+                if (!failed) failed = std::current_exception();
             }
         };
         struct Block final : ILMTHREAD_NAMESPACE::Task {
@@ -688,7 +689,7 @@ struct ExrRowReader::Impl {
             ILMTHREAD_NAMESPACE::TaskGroup group;  // waits for its tasks when it goes
             for (int t = 0; t < tasks; ++t) ILMTHREAD_NAMESPACE::ThreadPool::addGlobalTask(new Block(&group, run, t));
         }
-        if (!failed.empty()) throw std::runtime_error(failed);
+        if (failed) std::rethrow_exception(failed);
     }
 
     void read_file_rows(int fa, int fb, Imf::FrameBuffer& fb_) {
