@@ -59,6 +59,9 @@ main() {
   oiiotool "$work/src/forest.exr" --colorconvert linear sRGB -d uint8 -o "$work/src/forest.png"
   oiiotool "$work/src/forest.exr" -o "$work/src/forest.hdr"
   oiiotool "$work/src/forest.exr" -d float -o "$work/src/forest.tif"
+  # A 4K half-float ZIP world: streamed, its blocks decoded by iblbake itself
+  # (native/src/io/exr_zip.h) with the wheel's own libdeflate.
+  oiiotool "$work/src/forest.exr" --resize:filter=triangle 4096x2048 -d half --compression zip -o "$work/src/forest_zip.exr"
   cp "$REPO/tests/wheels/bake_cases.py" "$work/"
   local t=$SECONDS
   (cd "$work" && IBLBAKE_CACHE_DIR="$work/cache" /usr/bin/python3 bake_cases.py "$(dirname "$host_module")" src ref)

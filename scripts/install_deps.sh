@@ -26,7 +26,7 @@ fi
 BUILD=(build-essential cmake pkg-config ca-certificates git)
 LIBS=(libopenimageio-dev openimageio-tools libopenexr-dev libpng-dev libtbb-dev
       nlohmann-json3-dev libssl-dev libcli11-dev
-      libdeflate-dev zlib1g-dev)  # the CLI's zlib one-shot calls through libdeflate
+      libdeflate-dev zlib1g-dev)  # EXR ZIP blocks, and the CLI's zlib one-shot calls, through libdeflate
 HOSTILE=(libjpeg-dev)  # JPEG read with libjpeg directly (issue 15)
 PYTHON=(python3-dev python3-numpy pybind11-dev)
 TESTS=(libgtest-dev libgmock-dev python3-pytest)

@@ -3,7 +3,8 @@
 # the static, position-independent libraries the wheels' module links in,
 # from Debian 12's source packages (apt-get source; the versions Debian 12's
 # own build of iblbake links, so the wheels decode and compress as it does):
-# zlib, libpng, libjpeg-turbo, zstd, Imath, OpenEXR and oneTBB, into PREFIX.
+# zlib, libpng, libjpeg-turbo, zstd, libdeflate, Imath, OpenEXR and oneTBB,
+# into PREFIX.
 # OpenSSL's libcrypto (SHA-256 only) is Debian 11's own libcrypto.a, which is
 # already position-independent. Every unit gets scripts/wheel/glibc_pins.h.
 #   bash build_deps.sh PREFIX PINS_HEADER
@@ -17,8 +18,8 @@ rm -rf "$SRC" "$PREFIX"
 mkdir -p "$SRC" "$PREFIX"
 cd "$SRC"
 # The _apt user cannot write here: apt downloads as root, and says so.
-apt-get source -qq zlib libpng1.6 libjpeg-turbo libzstd imath openexr onetbb 2>&1 | grep -v "unsandboxed as root" || true
-for d in zlib libpng1.6 libjpeg-turbo libzstd imath openexr onetbb; do
+apt-get source -qq zlib libpng1.6 libjpeg-turbo libzstd libdeflate imath openexr onetbb 2>&1 | grep -v "unsandboxed as root" || true
+for d in zlib libpng1.6 libjpeg-turbo libzstd libdeflate imath openexr onetbb; do
   ls -d "$SRC/$d"-*/ >/dev/null || { echo "build_deps: apt-get source $d gave nothing" >&2; exit 1; }
 done
 dir() { ls -d "$SRC/$1"-*/ | head -n 1; }
@@ -43,6 +44,15 @@ echo "build_deps: libjpeg-turbo"
 cm "$(dir libjpeg-turbo)" -DENABLE_SHARED=OFF -DWITH_TURBOJPEG=OFF
 echo "build_deps: zstd"
 cm "$(dir libzstd)build/cmake" -DZSTD_BUILD_SHARED=OFF -DZSTD_BUILD_PROGRAMS=OFF -DZSTD_BUILD_TESTS=OFF
+echo "build_deps: libdeflate"
+# Its Makefile (1.14: no CMake yet) builds the static library alone; the
+# header and the pkg-config file are installed as its `install` would.
+(cd "$(dir libdeflate)" && quiet make -j"$J" libdeflate.a DISABLE_SHARED=1 &&
+  install -m644 libdeflate.a "$PREFIX/lib" && install -m644 libdeflate.h "$PREFIX/include" &&
+  mkdir -p "$PREFIX/lib/pkgconfig" &&
+  sed -e "s|@PREFIX@|$PREFIX|" -e "s|@LIBDIR@|$PREFIX/lib|" -e "s|@INCDIR@|$PREFIX/include|" \
+      -e "s|@VERSION@|$(sed -n 's/^#define LIBDEFLATE_VERSION_STRING.*"\(.*\)"/\1/p' libdeflate.h)|" \
+      libdeflate.pc.in > "$PREFIX/lib/pkgconfig/libdeflate.pc")
 echo "build_deps: Imath"
 cm "$(dir imath)" -DBUILD_SHARED_LIBS=OFF -DBUILD_TESTING=OFF
 echo "build_deps: OpenEXR"

@@ -5,9 +5,10 @@ module for the reference):
   python3 bake_cases.py MODULE_DIR SOURCES OUT [--foreign]
 
 MODULE_DIR holds iblbake_core (an unpacked wheel, or build/native). SOURCES
-holds forest.exr, forest.png, forest.hdr and forest.tif. Each case writes OUT/<case>/; OUT/report.json
-says which module ran, under which Python, and every shared library the
-process had mapped at the end.
+holds forest.exr, forest_zip.exr (4K, half, ZIP), forest.png, forest.hdr and
+forest.tif. Each case writes OUT/<case>/; OUT/report.json says which module
+ran, under which Python, and every shared library the process had mapped at
+the end.
 
 --foreign: first load, with global visibility, another OpenImageIO, OpenEXR
 and TBB (Debian's python3-openimageio and whatever it pulls in), as Blender
@@ -62,6 +63,7 @@ def main():
     cases = {
         "hdr": lambda o: ib.bake_file(hdr, o),  # iblbake's own Radiance reader, in every build
         "exr": lambda o: ib.bake_file(exr, o),
+        "exr_zip": lambda o: ib.bake_file(os.path.join(sources, "forest_zip.exr"), o),  # streamed, ZIP blocks
         "exr_presets": lambda o: ib.bake_file(exr, o, presets=presets, preview=True),
         "png": lambda o: ib.bake_file(png, o),
         "png_presets": lambda o: ib.bake_file(png, o, presets=presets),

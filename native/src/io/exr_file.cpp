@@ -34,7 +34,7 @@
 #include <vector>
 #include <thread>
 
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/row_reader.h"
@@ -478,9 +478,10 @@ struct ExrRowReader::Impl {
     std::vector<Imf::Rgba> tmp_rgba;
     bool all_half = false;           // detail::three_half_channels
     // Scanline ZIP and ZIPS blocks of three HALF channels are decoded here
-    // (exr_zip.h): OpenEXR reads each block's bytes, zlib inflates them
-    // (libdeflate in the CLI), and the predictor, the byte split and the
-    // channels' interleaving are undone in one place, by the pool's threads.
+    // (exr_zip.h): OpenEXR reads each block's bytes, libdeflate inflates
+    // them (in the Python module too, where OpenEXR's own calls go to zlib),
+    // and the predictor, the byte split and the channels' interleaving are
+    // undone in one place, by the pool's threads.
     bool zip_direct = false;
     detail::HalfPlanes planes;
     int block_lines = 0;
@@ -601,6 +602,16 @@ struct ExrRowReader::Impl {
             warnings.push_back("the file has 2 colour channels, neither grey nor RGB: baked as grey from the first");
     }
 
+    // A libdeflate decompressor per thread (of OpenEXR's pool), kept for its life.
+    static libdeflate_decompressor* inflater() {
+        struct Free {
+            void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
+        };
+        thread_local std::unique_ptr<libdeflate_decompressor, Free> d(libdeflate_alloc_decompressor());
+        if (!d) throw std::bad_alloc();
+        return d.get();
+    }
+
     // Whether the blocks can be decoded here: has_halves(), scanlines, ZIP
     // or ZIPS, every channel of the file at full resolution (so a line's
     // layout is known), a little-endian host.
@@ -667,8 +678,10 @@ struct ExrRowReader::Impl {
                         continue;
                     }
                     if (tmp.size() < bytes) tmp.resize(bytes);
-                    uLongf got = uLongf(bytes);
-                    if (size > bytes || ::uncompress(tmp.data(), &got, data, uLong(size)) != Z_OK || got != bytes)
+                    size_t got = 0;
+                    if (size > bytes ||
+                        libdeflate_zlib_decompress(inflater(), data, size, tmp.data(), bytes, &got) != LIBDEFLATE_SUCCESS ||
+                        got != bytes)
                         throw std::runtime_error("the block of rows from " + std::to_string(y) +
                                                  " does not decompress (damaged zlib data)");
                     detail::undo_zip_predictor(tmp.data(), bytes);
