@@ -18,36 +18,15 @@
 // Every call that libdeflate does not complete (an output buffer too small
 // for its bound, damaged input, level 0) is handed to zlib's own function
 // (dlsym RTLD_NEXT), so results and error codes are zlib's wherever they
-// differ.
+// differ. The compressors and decompressors are the library's, one per
+// thread (iblbake/io/deflate.h).
+#include "iblbake/io/deflate.h"
+
 #include <dlfcn.h>
 #include <libdeflate.h>
 #include <zlib.h>
 
-#include <memory>
-
 namespace {
-
-struct CompressorFree {
-    void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
-};
-struct DecompressorFree {
-    void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
-};
-
-// One compressor per level and one decompressor per thread (they are not
-// shareable), made on first use and freed when the thread ends.
-libdeflate_compressor* compressor(int level) {
-    thread_local std::unique_ptr<libdeflate_compressor, CompressorFree> per_level[10];
-    auto& c = per_level[level];
-    if (!c) c.reset(libdeflate_alloc_compressor(level));
-    return c.get();
-}
-
-libdeflate_decompressor* decompressor() {
-    thread_local std::unique_ptr<libdeflate_decompressor, DecompressorFree> d;
-    if (!d) d.reset(libdeflate_alloc_decompressor());
-    return d.get();
-}
 
 template <typename Fn>
 Fn zlib_own(const char* name) {
@@ -64,7 +43,7 @@ extern "C" {
 int compress2(Bytef* dest, uLongf* dest_len, const Bytef* source, uLong source_len, int level) {
     if (level == Z_DEFAULT_COMPRESSION) level = 6;
     if (level >= 1 && level <= 9 && dest && dest_len && (source || source_len == 0)) {
-        if (libdeflate_compressor* c = compressor(level)) {
+        if (libdeflate_compressor* c = iblbake::io::thread_compressor(level)) {
             const size_t n = libdeflate_zlib_compress(c, source, source_len, dest, *dest_len);
             if (n > 0) {
                 *dest_len = uLongf(n);
@@ -82,7 +61,7 @@ int compress(Bytef* dest, uLongf* dest_len, const Bytef* source, uLong source_le
 
 int uncompress(Bytef* dest, uLongf* dest_len, const Bytef* source, uLong source_len) {
     if (dest && dest_len && *dest_len > 0 && source) {
-        if (libdeflate_decompressor* d = decompressor()) {
+        if (libdeflate_decompressor* d = iblbake::io::thread_decompressor()) {
             size_t out = 0;
             if (libdeflate_zlib_decompress(d, source, source_len, dest, *dest_len, &out) == LIBDEFLATE_SUCCESS) {
                 *dest_len = uLongf(out);

@@ -36,6 +36,7 @@
 
 #include <libdeflate.h>
 
+#include "iblbake/io/deflate.h"
 #include "iblbake/io/image_io.h"
 #include "iblbake/io/row_reader.h"
 #include "iblbake/io/text.h"
@@ -602,16 +603,6 @@ struct ExrRowReader::Impl {
             warnings.push_back("the file has 2 colour channels, neither grey nor RGB: baked as grey from the first");
     }
 
-    // A libdeflate decompressor per thread (of OpenEXR's pool), kept for its life.
-    static libdeflate_decompressor* inflater() {
-        struct Free {
-            void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
-        };
-        thread_local std::unique_ptr<libdeflate_decompressor, Free> d(libdeflate_alloc_decompressor());
-        if (!d) throw std::bad_alloc();
-        return d.get();
-    }
-
     // Whether the blocks can be decoded here: has_halves(), scanlines, ZIP
     // or ZIPS, every channel of the file at full resolution (so a line's
     // layout is known), a little-endian host.
@@ -619,18 +610,17 @@ struct ExrRowReader::Impl {
 #if __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
         if (!has_halves() || hd.hasTileDescription()) return;
         if (compression != Imf::ZIP_COMPRESSION && compression != Imf::ZIPS_COMPRESSION) return;
-        size_t at[3] = {0, 0, 0}, line = 0;
+        detail::HalfPlanes found_at;
         int found = 0;
         for (Imf::ChannelList::ConstIterator it = hd.channels().begin(); it != hd.channels().end(); ++it) {
             const Imf::Channel& c = it.channel();
             if (c.xSampling != 1 || c.ySampling != 1) return;
             for (int k = 0; k < 3; ++k)
-                if (names[size_t(k)] == it.name()) at[k] = line, ++found;
-            line += size_t(c.type == Imf::HALF ? 2 : 4) * size_t(data_w);
+                if (names[size_t(k)] == it.name()) found_at.plane[k] = found_at.line_bytes, ++found;
+            found_at.line_bytes += size_t(c.type == Imf::HALF ? 2 : 4) * size_t(data_w);
         }
         if (found != 3) return;
-        planes.line_bytes = line;
-        for (int k = 0; k < 3; ++k) planes.plane[k] = at[k];
+        planes = found_at;
         block_lines = detail::lines_per_block(compression);
         zip_direct = true;
 #else
@@ -665,6 +655,8 @@ struct ExrRowReader::Impl {
         auto run = [&](int t) {
             try {
                 std::vector<uint8_t>& tmp = scratch[size_t(t)];
+                libdeflate_decompressor* const inflater = thread_decompressor();  // this thread's, kept for its life
+                if (!inflater) throw std::bad_alloc();
                 for (int k = nb * t / tasks; k < nb * (t + 1) / tasks; ++k) {
                     const int y = dw.min.y + (b0 + k) * block_lines;
                     const int lines = std::min(block_lines, dw.max.y - y + 1);
@@ -680,7 +672,7 @@ struct ExrRowReader::Impl {
                     if (tmp.size() < bytes) tmp.resize(bytes);
                     size_t got = 0;
                     if (size > bytes ||
-                        libdeflate_zlib_decompress(inflater(), data, size, tmp.data(), bytes, &got) != LIBDEFLATE_SUCCESS ||
+                        libdeflate_zlib_decompress(inflater, data, size, tmp.data(), bytes, &got) != LIBDEFLATE_SUCCESS ||
                         got != bytes)
                         throw std::runtime_error("the block of rows from " + std::to_string(y) +
                                                  " does not decompress (damaged zlib data)");

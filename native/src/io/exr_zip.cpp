@@ -1,7 +1,5 @@
 #include "exr_zip.h"
 
-#include <cstring>
-
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
@@ -21,7 +19,7 @@ bool has_avx2() {
     return yes;
 }
 
-// As undo_zip_predictor below, 32 bytes at a time: the prefix sums within
+// As undo_zip_predictor_sse2 below, 32 bytes at a time: the prefix sums within
 // each 16-byte lane, then the low lane's last sum added to the high lane,
 // then the byte before them.
 __attribute__((target("avx2"))) void undo_zip_predictor_avx2(uint8_t* b, size_t n) {
@@ -86,8 +84,8 @@ void undo_zip_predictor(uint8_t* b, size_t n) { undo_zip_predictor_scalar(b, n);
 
 namespace {
 
-// A channel's values in line `line` of the block: low bytes at lo[x], high
-// bytes at hi[x] (split), or both at lo[2 x], lo[2 x + 1] (plain).
+// A channel's values in one line of a split block: low bytes at lo[x], high
+// bytes at hi[x].
 struct Plane {
     const uint8_t* lo;
     const uint8_t* hi;
@@ -158,26 +156,31 @@ bool has_ssse3() {
 
 #endif
 
+// Each line's three planes to `line(planes, out_line)`.
+template <typename LineFn>
+void split_lines(const uint8_t* block, size_t size, const HalfPlanes& p, int width, int first, int lines,
+                 uint16_t* out, LineFn line) {
+    for (int l = 0; l < lines; ++l) {
+        const Plane pl[3] = {split_plane(block, size, p, first + l, 0), split_plane(block, size, p, first + l, 1),
+                             split_plane(block, size, p, first + l, 2)};
+        line(pl, out + size_t(l) * size_t(width) * 3);
+    }
+}
+
 }  // namespace
 
 void split_block_to_rgb_scalar(const uint8_t* block, size_t size, const HalfPlanes& p, int width, int first, int lines,
                                uint16_t* out) {
-    for (int l = 0; l < lines; ++l) {
-        const Plane pl[3] = {split_plane(block, size, p, first + l, 0), split_plane(block, size, p, first + l, 1),
-                             split_plane(block, size, p, first + l, 2)};
-        split_line_scalar(pl, 0, width, out + size_t(l) * size_t(width) * 3);
-    }
+    split_lines(block, size, p, width, first, lines, out,
+                [width](const Plane(&pl)[3], uint16_t* o) { split_line_scalar(pl, 0, width, o); });
 }
 
 void split_block_to_rgb(const uint8_t* block, size_t size, const HalfPlanes& p, int width, int first, int lines,
                         uint16_t* out) {
 #if defined(__x86_64__)
     if (has_ssse3()) {
-        for (int l = 0; l < lines; ++l) {
-            const Plane pl[3] = {split_plane(block, size, p, first + l, 0), split_plane(block, size, p, first + l, 1),
-                                 split_plane(block, size, p, first + l, 2)};
-            split_line_ssse3(pl, width, out + size_t(l) * size_t(width) * 3);
-        }
+        split_lines(block, size, p, width, first, lines, out,
+                    [width](const Plane(&pl)[3], uint16_t* o) { split_line_ssse3(pl, width, o); });
         return;
     }
 #endif
