@@ -21,13 +21,13 @@
 #endif
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <exception>
 #include <filesystem>
 #include <memory>
-#include <atomic>
 #include <mutex>
 #include <map>
 #include <string>
@@ -638,7 +638,8 @@ struct ExrRowReader::Impl {
     // decode theirs. A block that does not inflate to its size is an error.
     // (Reading a band's blocks first, then splitting them between the tasks,
     // left the pool idle during the reads and whichever task finished
-    // first idle at the end: 12 % of a 16K bake's band time.)
+    // first idle at the end: a 16K bake's two cores were 1.75 busy on
+    // average during its pass, now 1.9 to 2.0; the bake was 4 % faster.)
     void read_zip_halves(int fa, int fb, uint16_t* out) {
         const int b0 = (fa - dw.min.y) / block_lines, b1 = (fb - dw.min.y) / block_lines, nb = b1 - b0 + 1;
         // A block is at most its rows' size (OpenEXR refuses a longer one).
