@@ -21,16 +21,14 @@
 #include "iblbake/pipeline/bake_file.h"
 #include "iblbake/pipeline/write.h"
 #include "reference.h"
+#include "scratch.h"
 
 using namespace iblbake;
 namespace fs = std::filesystem;
 
 namespace {
 fs::path temp_dir(const std::string& name) {
-    const fs::path p = fs::temp_directory_path() / ("iblbake_test_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
+    return scratch::dir(name);
 }
 
 BakeOptions small_options() {

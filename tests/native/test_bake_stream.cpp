@@ -25,6 +25,7 @@
 #include "iblbake/pipeline/write.h"
 #include "reference.h"
 #include "test_files.h"
+#include "scratch.h"
 
 using namespace iblbake;
 namespace fs = std::filesystem;
@@ -311,7 +312,7 @@ TEST(StreamedBake, HalvesReadAheadFailsAndCancelsCleanly) {
 // nothing, the whole image is read and scaled (the overflow guard), the
 // progress never goes back.
 TEST(StreamedBake, BakeFileFallsBackForTheOverflowGuard) {
-    const fs::path dir = fs::temp_directory_path() / ("iblbake_test_overflow_" + std::to_string(::getpid()));
+    const fs::path dir = scratch::root() / "overflow";
     fs::remove_all(dir);
     fs::create_directories(dir);
     Image src = ref::random_smooth_source(2048, 1024, 4);  // large enough to stream (stream_bytes)
@@ -384,7 +385,7 @@ TEST_P(BakeFileStreams, WritesTheWholeImagePathsFiles) {
     const std::string ext = GetParam();
     if ((ext == "hdr" || ext == "pfm") && !io::reads_format(ext == "hdr" ? "hdr" : "pnm"))
         GTEST_SKIP() << "no OpenImageIO plugin";
-    const fs::path dir = fs::temp_directory_path() / ("iblbake_test_stream_" + ext + std::to_string(::getpid()));
+    const fs::path dir = scratch::root() / ("stream_" + ext);
     fs::remove_all(dir);
     fs::create_directories(dir);
     // 2048 x 1024: its floats (25 MB) outweigh the bake's state and three bands (stream_bytes), so it streams.

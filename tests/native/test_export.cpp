@@ -30,6 +30,7 @@
 #include "iblbake/pipeline/exports.h"
 #include "iblbake/pipeline/plan.h"
 #include "reference.h"
+#include "scratch.h"
 
 using namespace iblbake;
 namespace fs = std::filesystem;
@@ -38,10 +39,7 @@ using Bytes = std::vector<uint8_t>;
 namespace {
 
 fs::path temp_dir(const std::string& name) {
-    const fs::path p = fs::temp_directory_path() / ("iblbake_export_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
+    return scratch::dir(name);
 }
 
 uint32_t u32(const Bytes& b, size_t at) {

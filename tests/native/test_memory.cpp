@@ -21,6 +21,7 @@
 #include "iblbake/image/image.h"
 #include "iblbake/pipeline/write.h"
 #include "iblbake/util/parallel.h"
+#include "scratch.h"
 
 using namespace iblbake;
 
@@ -225,7 +226,7 @@ TEST(Bake, SourceGivenBackDuringTheTreeChangesNoOutput) {
 
 TEST(Bake, WriterTakesCubesOnlyWhenNothingAfterReadsThem) {
     const std::filesystem::path dir =
-        std::filesystem::temp_directory_path() / ("iblbake_test_taking_" + std::to_string(::getpid()));
+        scratch::root() / "taking";
     BakeOptions o;
     o.face_size = 64;
     WriteOptions files_only;

@@ -13,6 +13,7 @@
 #include "iblbake/io/image_io.h"
 #include "iblbake/pipeline/preview.h"
 #include "iblbake/pipeline/write.h"
+#include "scratch.h"
 
 using namespace iblbake;
 namespace fs = std::filesystem;
@@ -114,7 +115,7 @@ TEST(Preview, UpIsUpOnTheSheet) {
 }
 
 TEST(Preview, WrittenBesideTheBakeWhenAsked) {
-    const fs::path dir = fs::temp_directory_path() / ("iblbake_test_preview_" + std::to_string(::getpid()));
+    const fs::path dir = scratch::root() / "preview";
     fs::remove_all(dir);
     const BakeResult r = compute_constant_bake({0.5f, 0.5f, 0.5f}, options());
     WriteOptions wo;

@@ -44,6 +44,7 @@
 #include "exr_zip.h"
 #include "reference.h"
 #include "test_files.h"
+#include "scratch.h"
 
 namespace fs = std::filesystem;
 using namespace iblbake;
@@ -51,7 +52,7 @@ using namespace iblbake;
 namespace {
 
 fs::path temp_file(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_" + std::to_string(::getpid()));
+    const fs::path dir = scratch::root() / "rows";
     fs::create_directories(dir);
     return dir / name;
 }
@@ -583,7 +584,7 @@ TEST(StreamingPass, FromEnvironment) {
 // Radiance HDR and PFM: the rows are read_image()'s, in bands of any height
 // and in any order, with its warnings and its sRGB decode.
 TEST(RowReader, FormatsAreReadImagesRows) {
-    const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_formats_" + std::to_string(::getpid()));
+    const fs::path dir = scratch::root() / "rows_formats";
     fs::create_directories(dir);
     Image img = ref::random_smooth_source(160, 80, 5);
     for (float& v : img.pixels) v = std::min(v * 0.3f, 1.0f);  // the 8-bit formats' range
@@ -648,7 +649,7 @@ TEST(RowReader, FormatsAreReadImagesRows) {
 // cannot be read gets read_image's error: a missing file and a cut JPEG
 // before any pixel, a cut PNG or HDR at the rows past the cut.
 TEST(RowReader, WhatIsReadWholeAndWhatIsRefused) {
-    const fs::path dir = fs::temp_directory_path() / ("iblbake_rows_whole_" + std::to_string(::getpid()));
+    const fs::path dir = scratch::root() / "rows_whole";
     fs::create_directories(dir);
     const Image img = ref::random_smooth_source(64, 32, 2);
     testfiles::write_png_interlaced((dir / "adam7.png").string(), img);
