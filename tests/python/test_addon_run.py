@@ -362,7 +362,8 @@ def test_the_bake_process_runs_at_the_lowest_priority(tmp_path):
         seen.add((int(fields[16]), int(fields[38])))
     job.wait(120)
     assert job.result is not None
-    assert seen == {(19, os.SCHED_IDLE)}, seen  # Blender's drawing threads preempt them at once
+    assert seen == {(19, os.SCHED_IDLE)}, seen
+    assert not os.path.exists(job.tmp)  # removed once the child ended, with no cleanup() called  # Blender's drawing threads preempt them at once
 
 
 @pytest.mark.parametrize("when", ["reading", "specular"])
@@ -381,6 +382,7 @@ def test_a_cancelled_bake_process_leaves_the_folder_as_it_was(tmp_path, when):
     assert job.wait(60) and job.cancelled and (job.result, job.error) == (None, None)
     assert {n: open(tmp_path / "out" / n, "rb").read() for n in os.listdir(tmp_path / "out")} == before
     assert sorted(os.listdir(tmp_path)) == ["cache", "out", "sky.exr"]  # no staging folder left
+    assert not os.path.exists(first.tmp) and not os.path.exists(job.tmp)  # nor the jobs' own folders
     job.cleanup()
 
 
@@ -390,6 +392,7 @@ def test_without_an_interpreter_the_bake_runs_on_a_thread(tmp_path):
                       python=str(tmp_path / "no-python")).start()
     assert job.wait(120) and job.result.status == "baked"
     assert "its own process could not start" in job.fallback
+    assert not os.path.exists(job.tmp)
 
 
 def test_errors_cross_the_process_boundary_as_their_own_types(tmp_path):
@@ -400,3 +403,4 @@ def test_errors_cross_the_process_boundary_as_their_own_types(tmp_path):
     alpha = WorldSource(IMAGE, world="w", image_path=source.image_path, colorspace="Filmic Log")
     job = BakeProcess(Work("file", source.image_path, False), alpha, small_settings(tmp_path), None, {}).start()
     assert job.wait(120) and isinstance(job.error, FileNotAsBlenderShowsIt)
+    assert not os.path.exists(job.tmp)

@@ -220,11 +220,22 @@ class BakeProcess:
             self.proc.wait()
             self._collect()
         except Exception as e:  # the child could not run: bake on a thread here
+            self._remove_files()
             if not self._ready and not self._cancel.is_set():
                 self._fall_back(e)
                 return
             self.error = e
+        self._remove_files()
         self._finished.set()
+
+    def _remove_files(self):
+        """The job's folder (the job, the pixels, the result) once no child
+        uses it: nothing there is needed after _collect(), and a caller that
+        never calls cleanup() (or a Blender closed mid-bake) would otherwise
+        leave an image's worth of pixels in the temporary folder. A child
+        still running keeps it until cleanup() has ended the child."""
+        if self.proc is None or self.proc.poll() is not None:
+            shutil.rmtree(self.tmp, ignore_errors=True)
 
     def _line(self, parts):
         if parts[0] == "R":
