@@ -3,7 +3,9 @@ driven without Blender: fake stages stand in for Blender's buffer, the
 Cycles child render, the file reads and the bake, so every path, every
 failure and a cancel at every stage run in milliseconds."""
 import os
+import subprocess
 import sys
+import tempfile
 import threading
 import time
 
@@ -384,6 +386,44 @@ def test_a_cancelled_bake_process_leaves_the_folder_as_it_was(tmp_path, when):
     assert sorted(os.listdir(tmp_path)) == ["cache", "out", "sky.exr"]  # no staging folder left
     assert not os.path.exists(first.tmp) and not os.path.exists(job.tmp)  # nor the jobs' own folders
     job.cleanup()
+
+
+PARENT = """
+import os, sys, time
+sys.path.insert(0, sys.argv[1])
+from test_addon_run import BakeProcess, Work, exr_source, small_settings
+import pathlib
+tmp_path = pathlib.Path(sys.argv[2])
+source, rgb = exr_source(tmp_path, 512, 1024)
+job = BakeProcess(Work("file", source.image_path, False), source, small_settings(tmp_path, face_size=256), None,
+                  {}).start()
+deadline = time.monotonic() + 120
+while job.status()[0] != sys.argv[3]:
+    assert time.monotonic() < deadline and not job.done(), job.status()
+    time.sleep(0.0005)
+print(job.tmp, job.proc.pid, flush=True)
+os._exit(0)  # as a Blender that closes or crashes mid-bake: no cancel(), no cleanup()
+"""
+
+
+@pytest.mark.parametrize("when", ["reading", "specular"])
+def test_a_bake_process_whose_blender_is_gone_removes_its_folder(tmp_path, when):
+    here = os.path.dirname(os.path.abspath(__file__))
+    out = subprocess.run([sys.executable, "-c", PARENT, here, str(tmp_path), when], capture_output=True, text=True,
+                         timeout=180, check=True).stdout.split()
+    folder, pid = out[0], int(out[1])
+    assert folder.startswith(tempfile.gettempdir()) and "iblbake-bake-" in folder
+    deadline = time.monotonic() + 60
+    while os.path.exists(folder) or os.path.exists("/proc/%d" % pid) and not zombie(pid):
+        assert time.monotonic() < deadline, os.listdir(folder) if os.path.exists(folder) else "running"
+        time.sleep(0.01)
+
+
+def zombie(pid):
+    try:
+        return open("/proc/%d/stat" % pid).read().rsplit(")", 1)[1].split()[0] == "Z"
+    except OSError:
+        return True
 
 
 def test_without_an_interpreter_the_bake_runs_on_a_thread(tmp_path):

@@ -14,7 +14,8 @@ hundreds of megabytes out of Blender's memory.
 
 The child reports on its standard output, one line each: "P stage fraction"
 (progress), "S name seconds" (a stage's time), "R" (ready). A line "cancel"
-on its standard input, or that input's end (Blender gone), cancels it. bpy-free."""
+on its standard input, or that input's end (Blender gone), cancels it; after
+the input's end the child removes the job's folder itself. bpy-free."""
 import json
 import os
 import shutil
@@ -376,12 +377,18 @@ def child_main(tmp: str):
             sys.stdout.write("\t".join(str(p) for p in parts) + "\n")
             sys.stdout.flush()
 
+    orphaned = threading.Event()  # Blender is gone: no one will read the result, nor remove tmp
+
     def watch():
         for line in sys.stdin:
             if line.strip() == "cancel":
                 break
+        else:
+            orphaned.set()
         cancel.set()  # a cancel, or Blender is gone
         if not baking.is_set():  # still reading: nothing written yet, stop at once
+            if orphaned.is_set():
+                shutil.rmtree(tmp, ignore_errors=True)
             os._exit(CANCELLED_EXIT)
     threading.Thread(target=watch, daemon=True).start()
     native.load()
@@ -420,3 +427,5 @@ def child_main(tmp: str):
     with open(os.path.join(tmp, "result.json.tmp"), "w") as f:
         json.dump(result, f)
     os.replace(os.path.join(tmp, "result.json.tmp"), os.path.join(tmp, "result.json"))
+    if orphaned.is_set():
+        shutil.rmtree(tmp, ignore_errors=True)
