@@ -544,6 +544,11 @@ class ChildRender:
     def _spawn_and_read(self, cmd):
         env = dict(os.environ)
         env.pop("PYTHONPATH", None)
+        # The child's own temporary folder (Blender's blender_XXXXXX, with Cycles' tile buffers: a render's
+        # worth of floats) inside ours, which cleanup() removes: a child ended by a cancel (SIGTERM, or
+        # killed) leaves it behind otherwise. With --factory-startup the child has no preferences'
+        # temporary folder, and Blender then takes TMPDIR's.
+        env["TMPDIR"] = self.tmp
         try:
             proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                     stdin=subprocess.DEVNULL, env=env, text=True, errors="replace")

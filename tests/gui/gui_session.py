@@ -16,12 +16,14 @@ presses Esc (xdotool, a real key event) or the Cancel button's operator at
 each stage of further bakes and checks that the earlier bake is untouched,
 reopens the saved file, opens the preferences, takes screenshots (ImageMagick's
 import) and writes WORK/result.json. Numbers are judged by test_gui.py."""
+import glob
 import hashlib
 import json
 import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import traceback
@@ -459,12 +461,20 @@ def idle_window(name, seconds=4.0):
     PULSE.reset("idle")
 
 
+def blender_temp_folders():
+    """The blender_XXXXXX folders in the system's temporary folder (a
+    Blender's own, which it removes when it quits; this Blender's is there
+    throughout)."""
+    return set(glob.glob(os.path.join(tempfile.gettempdir(), "blender_*")))
+
+
 def cancel_at(key, stage_prefix, how, folder, face_size=None):
     """Bakes again (forced; with face_size, a slower bake whose specular stage
     outlasts a key press's way through the X server) and stops it with Esc
     or Cancel once the stage starts; the folder must be as it was."""
     state = addon("state")
     before = snapshot(folder)
+    blender_tmp = blender_temp_folders()
     props = bpy.context.scene.iblbake
     old_face = props.face_size
     if face_size:
@@ -486,6 +496,8 @@ def cancel_at(key, stage_prefix, how, folder, face_size=None):
     props.face_size = old_face
     RESULT["cancels"][key] = {"stage_seen": seen, "how": how, "status": bpy.context.scene.iblbake.last_status,
                               "intact": snapshot(folder) == before, "gaps": dict(PULSE.gaps),
+                              # a child Blender's temporary folder left behind (a cancelled render's)
+                              "leaked": sorted(blender_temp_folders() - blender_tmp),
                               "own": dict(PULSE.own), "cpu": dict(PULSE.cpu), "code": dict(PULSE.code),
                               "stages": sorted(set(s for _, s, _ in PULSE.trace))}
     PULSE.reset("idle")

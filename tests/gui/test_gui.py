@@ -246,6 +246,7 @@ def test_panel_bakes_live_and_stops_at_every_stage(tmp_path, xvfb):
         assert c["stage_seen"], (name, c)
         assert c["status"].startswith("Cancelled"), (name, c)
         assert c["intact"], (name, c)
+        assert c["leaked"] == [], (name, c["leaked"])  # no child Blender's temporary folder left
 
     checks = res["checks"]
     # 2. The file's settings: started from the preferences; the World panel's toggles wrote the scene only.
