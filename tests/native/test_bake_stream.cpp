@@ -24,8 +24,8 @@
 #include "iblbake/pipeline/plan.h"
 #include "iblbake/pipeline/write.h"
 #include "reference.h"
-#include "test_files.h"
 #include "scratch.h"
+#include "test_files.h"
 
 using namespace iblbake;
 namespace fs = std::filesystem;

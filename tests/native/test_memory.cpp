@@ -225,8 +225,7 @@ TEST(Bake, SourceGivenBackDuringTheTreeChangesNoOutput) {
 }
 
 TEST(Bake, WriterTakesCubesOnlyWhenNothingAfterReadsThem) {
-    const std::filesystem::path dir =
-        scratch::root() / "taking";
+    const std::filesystem::path dir = scratch::root() / "taking";
     BakeOptions o;
     o.face_size = 64;
     WriteOptions files_only;

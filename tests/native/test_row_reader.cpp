@@ -43,8 +43,8 @@
 #include "iblbake/math/half.h"
 #include "exr_zip.h"
 #include "reference.h"
-#include "test_files.h"
 #include "scratch.h"
+#include "test_files.h"
 
 namespace fs = std::filesystem;
 using namespace iblbake;

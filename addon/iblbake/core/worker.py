@@ -232,9 +232,10 @@ class BakeProcess:
     def _remove_files(self):
         """The job's folder (the job, the pixels, the result) once no child
         uses it: nothing there is needed after _collect(), and a caller that
-        never calls cleanup() (or a Blender closed mid-bake) would otherwise
-        leave an image's worth of pixels in the temporary folder. A child
-        still running keeps it until cleanup() has ended the child."""
+        never calls cleanup() would otherwise leave an image's worth of
+        pixels in the temporary folder. A child still running keeps it until
+        cleanup() has ended the child (or, its Blender gone, removes it
+        itself: child_main)."""
         if self.proc is None or self.proc.poll() is not None:
             shutil.rmtree(self.tmp, ignore_errors=True)
 
