@@ -312,9 +312,7 @@ TEST(StreamedBake, HalvesReadAheadFailsAndCancelsCleanly) {
 // nothing, the whole image is read and scaled (the overflow guard), the
 // progress never goes back.
 TEST(StreamedBake, BakeFileFallsBackForTheOverflowGuard) {
-    const fs::path dir = scratch::root() / "overflow";
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    const fs::path dir = scratch::dir("overflow");
     Image src = ref::random_smooth_source(2048, 1024, 4);  // large enough to stream (stream_bytes)
     src.at(300, 200)[1] = 1e30f;
     io::write_exr((dir / "s.exr").string(), src, io::ExrPixel::Float);
@@ -385,9 +383,7 @@ TEST_P(BakeFileStreams, WritesTheWholeImagePathsFiles) {
     const std::string ext = GetParam();
     if ((ext == "hdr" || ext == "pfm") && !io::reads_format(ext == "hdr" ? "hdr" : "pnm"))
         GTEST_SKIP() << "no OpenImageIO plugin";
-    const fs::path dir = scratch::root() / ("stream_" + ext);
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    const fs::path dir = scratch::dir("stream_" + ext);
     // 2048 x 1024: its floats (25 MB) outweigh the bake's state and three bands (stream_bytes), so it streams.
     Image src = ref::sun_source(2048, 1024, {0.2, 0.5, 0.4}, 2.0, 1e4f, 0.5f);
     const std::string path = (dir / ("s." + ext)).string();

@@ -364,8 +364,8 @@ def test_the_bake_process_runs_at_the_lowest_priority(tmp_path):
         seen.add((int(fields[16]), int(fields[38])))
     job.wait(120)
     assert job.result is not None
-    assert seen == {(19, os.SCHED_IDLE)}, seen
-    assert not os.path.exists(job.tmp)  # removed once the child ended, with no cleanup() called  # Blender's drawing threads preempt them at once
+    assert seen == {(19, os.SCHED_IDLE)}, seen  # Blender's drawing threads preempt them at once
+    assert not os.path.exists(job.tmp)  # removed once the child ended, with no cleanup() called
 
 
 @pytest.mark.parametrize("when", ["reading", "specular"])

@@ -221,8 +221,8 @@ class BakeProcess:
             self.proc.wait()
             self._collect()
         except Exception as e:  # the child could not run: bake on a thread here
-            self._remove_files()
             if not self._ready and not self._cancel.is_set():
+                self._remove_files()  # the thread needs none of it
                 self._fall_back(e)
                 return
             self.error = e
